@@ -1,0 +1,111 @@
+# lodpipe - certified LOD chains for glTF 2.0.
+#
+#   make deps    install what is missing (Debian packages, npm test tools)
+#   make         build build/lodpipe
+#   make run     deps + build + the main job on the default scene (output in out/)
+#   make test    deps + build + sanitizer build + every test
+#   make bench   benchmarks into bench/RESULTS.md
+#
+# src/ is C11 and must build warning-free; third_party/ holds the thin C++17
+# bridges to tinygltf, Draco (and later toml++).
+
+CC      ?= cc
+CXX     ?= g++
+BUILD   := build
+SHARED  ?= $(abspath ../shared)
+
+DEBIAN_PACKAGES := g++ make pkg-config python3 nodejs npm \
+	libtinygltf-dev nlohmann-json3-dev libstb-dev libdraco-dev libmeshoptimizer-dev \
+	libopenmesh-dev libtomlplusplus-dev libcgal-dev
+
+CPPFLAGS_COMMON := -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L -Isrc -Ithird_party
+CFLAGS_COMMON   := -std=c11 -Wall -Wextra -Werror -pthread
+CXXFLAGS_COMMON := -std=c++17 -Wall -Wextra -pthread -I/usr/include/draco -Wno-unused-parameter
+LIBS            := -ldraco -lmeshoptimizer -lm -pthread
+
+OPT      := -O2 -g
+SAN      := -O1 -g -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
+
+SRC_C    := $(sort $(wildcard src/*.c))
+LIB_C    := $(filter-out src/main.c,$(SRC_C))
+SRC_CXX  := $(sort $(wildcard third_party/*/*.cpp))
+UNIT_SRC := $(sort $(wildcard tests/unit/test_*.c))
+
+OBJ      := $(SRC_C:%.c=$(BUILD)/obj/%.o) $(SRC_CXX:%.cpp=$(BUILD)/obj/%.o)
+LIB_OBJ_SAN := $(LIB_C:%.c=$(BUILD)/asan/obj/%.o) $(SRC_CXX:%.cpp=$(BUILD)/asan/obj/%.o)
+OBJ_SAN  := $(BUILD)/asan/obj/src/main.o $(LIB_OBJ_SAN)
+UNIT_BIN := $(UNIT_SRC:tests/unit/%.c=$(BUILD)/asan/%)
+
+.PHONY: all deps run test unit asan clean bench hausdorff
+all: $(BUILD)/lodpipe
+
+$(BUILD)/lodpipe: $(OBJ)
+	$(CXX) -o $@ $^ $(LIBS)
+
+$(BUILD)/obj/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(CPPFLAGS_COMMON) $(CFLAGS_COMMON) $(OPT) -MMD -MP -c $< -o $@
+
+$(BUILD)/obj/%.o: %.cpp
+	@mkdir -p $(dir $@)
+	$(CXX) $(CPPFLAGS_COMMON) $(CXXFLAGS_COMMON) $(OPT) -MMD -MP -c $< -o $@
+
+# AddressSanitizer + UndefinedBehaviorSanitizer build: the tests run this one.
+asan: $(BUILD)/asan/lodpipe $(UNIT_BIN)
+
+$(BUILD)/asan/lodpipe: $(OBJ_SAN)
+	$(CXX) $(SAN) -o $@ $^ $(LIBS)
+
+$(BUILD)/asan/obj/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(CPPFLAGS_COMMON) $(CFLAGS_COMMON) $(SAN) -MMD -MP -c $< -o $@
+
+$(BUILD)/asan/obj/%.o: %.cpp
+	@mkdir -p $(dir $@)
+	$(CXX) $(CPPFLAGS_COMMON) $(CXXFLAGS_COMMON) $(SAN) -MMD -MP -c $< -o $@
+
+$(BUILD)/asan/test_%: tests/unit/test_%.c $(LIB_OBJ_SAN)
+	@mkdir -p $(dir $@)
+	$(CC) $(CPPFLAGS_COMMON) $(CFLAGS_COMMON) $(SAN) -Itests/unit -o $@.o -c $<
+	$(CXX) $(SAN) -o $@ $@.o $(LIB_OBJ_SAN) $(LIBS)
+
+-include $(shell find $(BUILD) -name '*.d' 2>/dev/null)
+
+# ---- dependencies ------------------------------------------------------------------
+# Installs only what is missing, so it is a quick no-op on a prepared machine.
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+deps: tests/node_modules/.installed
+	@missing=""; for p in $(DEBIAN_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing:$$missing"; \
+	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
+	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
+tests/node_modules/.installed: tests/package.json tests/package-lock.json
+	@command -v npm >/dev/null 2>&1 || { $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
+	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends nodejs npm; }
+	cd tests && npm ci --no-audit --no-fund --loglevel=error
+	@touch $@
+
+# ---- the main job on the default scene -------------------------------------------
+run: deps
+	$(MAKE) all
+	@mkdir -p out
+	$(BUILD)/lodpipe inspect assets/default_scene.glb
+	$(BUILD)/lodpipe convert assets/default_scene.glb out/default_scene.glb
+	@echo "wrote out/default_scene.glb"
+
+# ---- tests -----------------------------------------------------------------------
+export ASAN_OPTIONS  := detect_leaks=1:abort_on_error=0:halt_on_error=1
+export UBSAN_OPTIONS := halt_on_error=1:print_stacktrace=1
+
+test: deps
+	$(MAKE) all asan
+	LODPIPE_BIN=$(abspath $(BUILD)/asan/lodpipe) LODPIPE_BUILD=$(abspath $(BUILD)) \
+	LODPIPE_SHARED=$(SHARED) node --test --test-concurrency=2 tests/
+
+clean:
+	rm -rf $(BUILD) out

@@ -1,0 +1,128 @@
+/* output.c - see output.h. */
+#include "output.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static void folder_of(const char *path, char *out, size_t size)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash) snprintf(out, size, ".");
+    else if (slash == path) snprintf(out, size, "/");
+    else snprintf(out, size, "%.*s", (int)(slash - path), path);
+}
+
+static int same_bytes(const char *path, const uint8_t *bytes, size_t size)
+{
+    struct stat st;
+    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode) || (size_t)st.st_size != size) return 0;
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    int same = 1;
+    uint8_t buf[65536];
+    size_t pos = 0, got;
+    while (same && (got = fread(buf, 1, sizeof buf, f)) > 0) {
+        if (pos + got > size || memcmp(buf, bytes + pos, got) != 0) same = 0;
+        pos += got;
+    }
+    fclose(f);
+    return same && pos == size;
+}
+
+/* Creates the folders of a relative name below base (for "Textures/x.png");
+ * refuses names that climb out of base. */
+static int make_parents(const char *base, const char *name, lp_error *err)
+{
+    if (name[0] == '/' || strstr(name, "..")) return lp_fail(err, LP_IO, "refusing to write outside the output folder: %s", name);
+    char path[4096];
+    for (const char *p = strchr(name, '/'); p; p = strchr(p + 1, '/')) {
+        int len = snprintf(path, sizeof path, "%s/%.*s", base, (int)(p - name), name);
+        if (len < 0 || (size_t)len >= sizeof path) return lp_fail(err, LP_IO, "path too long: %s", name);
+        if (mkdir(path, 0777) != 0 && errno != EEXIST)
+            return lp_fail(err, LP_IO, "cannot create folder %s (%s)", path, strerror(errno));
+    }
+    return LP_OK;
+}
+
+static int write_temp(const char *target, const uint8_t *bytes, size_t size, char *temp, size_t temp_size,
+                      lp_error *err)
+{
+    snprintf(temp, temp_size, "%s.lodpipe-XXXXXX", target);
+    int fd = mkstemp(temp);
+    if (fd < 0) {
+        temp[0] = 0;
+        return lp_fail(err, LP_IO, "cannot create a file beside %s (%s)", target, strerror(errno));
+    }
+    mode_t mask = umask(0);
+    umask(mask);
+    fchmod(fd, 0666 & ~mask);
+    size_t done = 0;
+    while (done < size) {
+        ssize_t n = write(fd, bytes + done, size - done);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) {
+            int e = n < 0 ? errno : ENOSPC;
+            close(fd);
+            return lp_fail(err, LP_IO, "cannot write %s (%s)", target, strerror(e));
+        }
+        done += (size_t)n;
+    }
+    if (fsync(fd) != 0 && errno != EINVAL) {
+        int e = errno;
+        close(fd);
+        return lp_fail(err, LP_IO, "cannot write %s (%s)", target, strerror(e));
+    }
+    if (close(fd) != 0) return lp_fail(err, LP_IO, "cannot write %s (%s)", target, strerror(errno));
+    return LP_OK;
+}
+
+int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, lp_error *err)
+{
+    char base[4096];
+    folder_of(main_path, base, sizeof base);
+    struct stat st;
+    if (stat(base, &st) != 0 || !S_ISDIR(st.st_mode))
+        return lp_fail(err, LP_IO, "output folder %s does not exist", base);
+    if (access(base, W_OK) != 0) return lp_fail(err, LP_IO, "output folder %s is not writable", base);
+
+    char (*temps)[4200] = calloc(count ? count : 1, sizeof *temps);
+    char (*targets)[4200] = calloc(count ? count : 1, sizeof *targets);
+    int rc = LP_OK;
+    if (!temps || !targets) {
+        rc = lp_fail(err, LP_IO, "out of memory");
+        goto cleanup;
+    }
+    for (size_t i = 0; i < count && !rc; ++i) {
+        if (i == 0) snprintf(targets[i], sizeof targets[i], "%s", main_path);
+        else snprintf(targets[i], sizeof targets[i], "%s/%s", base, files[i].name);
+        if (i > 0 && same_bytes(targets[i], files[i].bytes, files[i].size)) continue;
+        if (i > 0) rc = make_parents(base, files[i].name, err);
+        if (!rc) rc = write_temp(targets[i], files[i].bytes, files[i].size, temps[i], sizeof temps[i], err);
+    }
+    /* Auxiliary files first, the main file last: a reader never sees a main file
+     * whose buffers are missing. */
+    for (size_t k = 0; k < count && !rc; ++k) {
+        size_t i = (k + 1) % count;
+        if (!temps[i][0]) continue;
+        if (rename(temps[i], targets[i]) != 0) rc = lp_fail(err, LP_IO, "cannot write %s (%s)", targets[i], strerror(errno));
+        else temps[i][0] = 0;
+    }
+cleanup:
+    for (size_t i = 0; temps && i < count; ++i)
+        if (temps[i][0]) unlink(temps[i]);
+    free(temps);
+    free(targets);
+    return rc;
+}
+
+int output_same_file(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    if (stat(a, &sa) != 0 || stat(b, &sb) != 0) return 0;
+    return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}

@@ -1,0 +1,24 @@
+/* output.h - writing a set of files so that either all of them appear or none.
+ *
+ * Each file is written to a temp file in its final folder, then all are renamed
+ * into place (the main file, files[0], last). On any failure every temp file is
+ * removed, no existing file is touched, and the error (LP_IO) names the path and
+ * the reason (missing folder, read-only folder, disk full, ...). An auxiliary
+ * file (files[1..]) whose target already holds identical bytes is left alone, so
+ * writing beside the input does not rewrite its textures. */
+#ifndef LODPIPE_OUTPUT_H
+#define LODPIPE_OUTPUT_H
+
+#include <stddef.h>
+
+#include "gltf_io/gltf_io.h"
+#include "status.h"
+
+/* `main_path` is the output path the user named; files[i].name are relative to
+ * its folder, files[0] being the main file. */
+int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, lp_error *err);
+
+/* 1 when a and b name the same existing file. */
+int output_same_file(const char *a, const char *b);
+
+#endif

@@ -1,0 +1,420 @@
+/* scene.c - see scene.h. */
+#include "scene.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "accessor.h"
+
+static void warn(scene *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void warn(scene *s, const char *fmt, ...)
+{
+    if (s->warning_count < sizeof s->warnings / sizeof s->warnings[0]) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(s->warnings[s->warning_count], sizeof s->warnings[0], fmt, ap);
+        va_end(ap);
+    }
+    s->warning_count++;
+}
+
+/* ---- transforms ------------------------------------------------------------ */
+
+static void mat_mul(const double a[16], const double b[16], double out[16])
+{
+    double r[16];
+    for (int c = 0; c < 4; ++c)
+        for (int row = 0; row < 4; ++row) {
+            double sum = 0.0;
+            for (int k = 0; k < 4; ++k) sum += a[k * 4 + row] * b[c * 4 + k];
+            r[c * 4 + row] = sum;
+        }
+    memcpy(out, r, sizeof r);
+}
+
+/* Local transform of a node: its matrix, or T * R * S. */
+static void local_transform(const gltf_node *n, double out[16])
+{
+    if (n->has_matrix) {
+        memcpy(out, n->matrix, 16 * sizeof(double));
+        return;
+    }
+    const double x = n->rotation[0], y = n->rotation[1], z = n->rotation[2], w = n->rotation[3];
+    const double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w),
+                         2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w),
+                         2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)};
+    memset(out, 0, 16 * sizeof(double));
+    for (int c = 0; c < 3; ++c)
+        for (int row = 0; row < 3; ++row) out[c * 4 + row] = r[c * 3 + row] * n->scale[c];
+    out[12] = n->translation[0];
+    out[13] = n->translation[1];
+    out[14] = n->translation[2];
+    out[15] = 1.0;
+}
+
+double scene_max_scale(const double m[16])
+{
+    double best = 0.0;
+    for (int c = 0; c < 3; ++c) {
+        double len = sqrt(m[c * 4] * m[c * 4] + m[c * 4 + 1] * m[c * 4 + 1] + m[c * 4 + 2] * m[c * 4 + 2]);
+        if (len > best) best = len;
+    }
+    return best;
+}
+
+/* ---- node graph -------------------------------------------------------------- */
+
+/* Checks references, gives every node its parent, refuses cycles and absurd
+ * depth, and computes world transforms root-down with an explicit stack. */
+static int load_nodes(scene *s, lp_error *err)
+{
+    const size_t n = gltf_count(s->doc, GLTF_NODES);
+    const size_t meshes = gltf_count(s->doc, GLTF_MESHES), skins = gltf_count(s->doc, GLTF_SKINS),
+                 cameras = gltf_count(s->doc, GLTF_CAMERAS);
+    if (n > UINT32_MAX / 2) return lp_fail(err, LP_INVALID, "too many nodes (%zu)", n);
+    s->node_count = (uint32_t)n;
+    s->nodes = calloc(n ? n : 1, sizeof *s->nodes);
+    uint32_t *stack = malloc((n ? n : 1) * sizeof *stack);
+    uint32_t *depth = calloc(n ? n : 1, sizeof *depth);
+    int rc = LP_OK;
+    if (!s->nodes || !stack || !depth) {
+        rc = lp_fail(err, LP_INVALID, "out of memory for %zu nodes", n);
+        goto done;
+    }
+    for (size_t i = 0; i < n; ++i) s->nodes[i].parent = -1;
+    for (size_t i = 0; i < n; ++i) {
+        gltf_node g;
+        gltf_get_node(s->doc, i, &g);
+        scene_node *node = &s->nodes[i];
+        node->name = gltf_name(s->doc, GLTF_NODES, i);
+        node->mesh = g.mesh;
+        node->skin = g.skin;
+        node->lod_count = (uint32_t)g.lod_count;
+        node->lod_ids = g.lod_ids;
+        if (g.mesh >= 0 && (size_t)g.mesh >= meshes) {
+            rc = lp_fail(err, LP_INVALID, "nodes[%zu].mesh %lld does not exist", i, (long long)g.mesh);
+            goto done;
+        }
+        if (g.skin >= 0 && (size_t)g.skin >= skins) {
+            rc = lp_fail(err, LP_INVALID, "nodes[%zu].skin %lld does not exist", i, (long long)g.skin);
+            goto done;
+        }
+        if (g.camera >= 0 && (size_t)g.camera >= cameras) {
+            rc = lp_fail(err, LP_INVALID, "nodes[%zu].camera %lld does not exist", i, (long long)g.camera);
+            goto done;
+        }
+        for (size_t l = 0; l < g.lod_count; ++l)
+            if (g.lod_ids[l] < 0 || (size_t)g.lod_ids[l] >= n) {
+                rc = lp_fail(err, LP_INVALID, "nodes[%zu].extensions.MSFT_lod.ids[%zu] is not a node", i, l);
+                goto done;
+            }
+        for (size_t c = 0; c < g.child_count; ++c) {
+            int64_t child = g.children[c];
+            if ((size_t)child >= n) {
+                rc = lp_fail(err, LP_INVALID, "nodes[%zu].children[%zu] = %lld does not exist", i, c, (long long)child);
+                goto done;
+            }
+            if ((size_t)child == i || s->nodes[child].parent >= 0) {
+                rc = lp_fail(err, LP_INVALID, "nodes[%lld] has more than one parent (or is its own child)",
+                             (long long)child);
+                goto done;
+            }
+            s->nodes[child].parent = (int64_t)i;
+        }
+    }
+    /* Walk down from the roots; a node never reached sits on a cycle. */
+    uint32_t top = 0, reached = 0;
+    for (size_t i = 0; i < n; ++i)
+        if (s->nodes[i].parent < 0) {
+            gltf_node g;
+            gltf_get_node(s->doc, i, &g);
+            local_transform(&g, s->nodes[i].world);
+            stack[top++] = (uint32_t)i;
+        }
+    while (top) {
+        uint32_t i = stack[--top];
+        reached++;
+        gltf_node g;
+        gltf_get_node(s->doc, i, &g);
+        for (size_t c = 0; c < g.child_count; ++c) {
+            uint32_t child = (uint32_t)g.children[c];
+            gltf_node gc;
+            gltf_get_node(s->doc, child, &gc);
+            double local[16];
+            local_transform(&gc, local);
+            mat_mul(s->nodes[i].world, local, s->nodes[child].world);
+            depth[child] = depth[i] + 1;
+            if (depth[child] > SCENE_MAX_DEPTH) {
+                rc = lp_fail(err, LP_INVALID, "nodes[%u] is nested deeper than %d levels", child, SCENE_MAX_DEPTH);
+                goto done;
+            }
+            stack[top++] = child;
+        }
+    }
+    if (reached != n) {
+        for (size_t i = 0; i < n; ++i) depth[i] = 0;
+        /* name one node of the cycle: follow parents until a repeat */
+        size_t start = 0;
+        for (size_t i = 0; i < n; ++i)
+            if (s->nodes[i].parent >= 0) start = i;
+        size_t v = start;
+        for (size_t step = 0; step <= n; ++step) v = (size_t)s->nodes[v].parent;
+        rc = lp_fail(err, LP_INVALID, "nodes[%zu] is part of a cycle in the node hierarchy", v);
+    }
+done:
+    free(stack);
+    free(depth);
+    return rc;
+}
+
+/* Marks the nodes reachable from the default scene (the "scene" property, or
+ * scene 0 when the file names none). */
+static int mark_scene(scene *s, lp_error *err)
+{
+    const size_t scenes = gltf_count(s->doc, GLTF_SCENES);
+    int64_t chosen = gltf_default_scene(s->doc);
+    if (chosen >= 0 && (size_t)chosen >= scenes)
+        return lp_fail(err, LP_INVALID, "scene %lld does not exist (the file has %zu scenes)", (long long)chosen, scenes);
+    for (size_t i = 0; i < scenes; ++i) {
+        gltf_scene sc;
+        gltf_get_scene(s->doc, i, &sc);
+        for (size_t k = 0; k < sc.node_count; ++k) {
+            if ((size_t)sc.nodes[k] >= s->node_count)
+                return lp_fail(err, LP_INVALID, "scenes[%zu].nodes[%zu] = %lld does not exist", i, k,
+                               (long long)sc.nodes[k]);
+            if (s->nodes[sc.nodes[k]].parent >= 0)
+                return lp_fail(err, LP_INVALID, "scenes[%zu].nodes[%zu]: nodes[%lld] is not a root node", i, k,
+                               (long long)sc.nodes[k]);
+        }
+    }
+    if (chosen < 0 && scenes > 0) chosen = 0;
+    s->default_scene = chosen;
+    if (chosen < 0) return LP_OK;
+    gltf_scene sc;
+    gltf_get_scene(s->doc, (size_t)chosen, &sc);
+    /* Mark whole subtrees: a node is in the scene if its root is. */
+    for (size_t k = 0; k < sc.node_count; ++k) s->nodes[sc.nodes[k]].in_scene = 1;
+    int changed = 1;
+    while (changed) { /* parents precede nothing in particular, so iterate to a fixed point */
+        changed = 0;
+        for (uint32_t i = 0; i < s->node_count; ++i) {
+            int64_t p = s->nodes[i].parent;
+            if (!s->nodes[i].in_scene && p >= 0 && s->nodes[p].in_scene) {
+                s->nodes[i].in_scene = 1;
+                changed = 1;
+            }
+        }
+    }
+    return LP_OK;
+}
+
+/* ---- primitives ---------------------------------------------------------------- */
+
+/* Expands TRIANGLES / TRIANGLE_STRIP / TRIANGLE_FAN into a triangle list. */
+static int triangulate(scene *s, scene_primitive *p, const uint32_t *idx, uint32_t n, const char *where,
+                       lp_error *err)
+{
+    uint32_t tris = 0;
+    if (p->mode == 4) {
+        if (n % 3) warn(s, "%s: %u indices is not a multiple of 3; the last %u are ignored", where, n, n % 3);
+        tris = n / 3;
+    } else if (p->mode == 5 || p->mode == 6) {
+        tris = n >= 3 ? n - 2 : 0;
+    }
+    p->triangle_count = tris;
+    p->triangles = malloc((tris ? (size_t)tris : 1) * 3 * sizeof *p->triangles);
+    if (!p->triangles) return lp_fail(err, LP_INVALID, "%s: out of memory", where);
+    for (uint32_t t = 0; t < tris; ++t) {
+        uint32_t *out = p->triangles + 3 * (size_t)t;
+        if (p->mode == 4) {
+            out[0] = idx[3 * t];
+            out[1] = idx[3 * t + 1];
+            out[2] = idx[3 * t + 2];
+        } else if (p->mode == 5) { /* strip: every other triangle flips to keep the winding */
+            out[0] = idx[t + (t & 1)];
+            out[1] = idx[t + 1 - (t & 1)];
+            out[2] = idx[t + 2];
+        } else { /* fan */
+            out[0] = idx[0];
+            out[1] = idx[t + 1];
+            out[2] = idx[t + 2];
+        }
+    }
+    return LP_OK;
+}
+
+static int load_primitive(scene *s, size_t mesh, size_t prim, scene_primitive *p, lp_error *err)
+{
+    char where[64];
+    snprintf(where, sizeof where, "meshes[%zu].primitives[%zu]", mesh, prim);
+    gltf_primitive g;
+    gltf_get_primitive(s->doc, mesh, prim, &g);
+    const size_t accessors = gltf_count(s->doc, GLTF_ACCESSORS);
+    p->index = (uint32_t)prim;
+    p->mode = g.mode;
+    p->material = g.material;
+    p->indices = g.indices;
+    p->target_count = (uint32_t)g.target_count;
+    if (g.mode < 0 || g.mode > 6) return lp_fail(err, LP_INVALID, "%s.mode %d is not 0..6", where, g.mode);
+    if (g.material >= 0 && (size_t)g.material >= gltf_count(s->doc, GLTF_MATERIALS))
+        return lp_fail(err, LP_INVALID, "%s.material %lld does not exist", where, (long long)g.material);
+    if (g.indices >= 0 && (size_t)g.indices >= accessors)
+        return lp_fail(err, LP_INVALID, "%s.indices %lld does not exist", where, (long long)g.indices);
+    int position = -1;
+    for (size_t a = 0; a < g.attribute_count; ++a) {
+        if ((size_t)g.attributes[a].accessor >= accessors)
+            return lp_fail(err, LP_INVALID, "%s.attributes.%s = %lld does not exist", where, g.attributes[a].name,
+                           (long long)g.attributes[a].accessor);
+        if (strcmp(g.attributes[a].name, "POSITION") == 0) position = (int)a;
+    }
+    for (size_t t = 0; t < g.target_count; ++t)
+        for (size_t a = 0; a < g.target_attribute_counts[t]; ++a)
+            if ((size_t)g.target_attributes[t][a].accessor >= accessors)
+                return lp_fail(err, LP_INVALID, "%s.targets[%zu].%s does not exist", where, t,
+                               g.target_attributes[t][a].name);
+    if (position < 0) {
+        p->skipped = 1;
+        warn(s, "%s has no POSITION; it is kept as it is and not processed", where);
+        return LP_OK;
+    }
+    p->stream_count = (uint32_t)g.attribute_count;
+    p->streams = calloc(g.attribute_count, sizeof *p->streams);
+    if (!p->streams) return lp_fail(err, LP_INVALID, "%s: out of memory", where);
+    for (size_t a = 0; a < g.attribute_count; ++a) {
+        scene_stream *st = &p->streams[a];
+        uint32_t count;
+        st->name = g.attributes[a].name;
+        st->accessor = g.attributes[a].accessor;
+        int rc = accessor_read_floats(s->doc, st->accessor, &st->values, &count, &st->components, err);
+        if (rc) return rc;
+        if (a == (size_t)position) p->vertex_count = count;
+        else if (a > (size_t)position && count != p->vertex_count)
+            return lp_fail(err, LP_INVALID, "%s.attributes.%s has %u elements but POSITION has %u", where, st->name,
+                           count, p->vertex_count);
+    }
+    for (size_t a = 0; a < (size_t)position; ++a) {
+        gltf_accessor acc;
+        gltf_get_accessor(s->doc, (size_t)p->streams[a].accessor, &acc);
+        if (acc.count != p->vertex_count)
+            return lp_fail(err, LP_INVALID, "%s.attributes.%s has %llu elements but POSITION has %u", where,
+                           p->streams[a].name, (unsigned long long)acc.count, p->vertex_count);
+    }
+    if (p->streams[position].components != 3)
+        return lp_fail(err, LP_INVALID, "%s: POSITION must be VEC3", where);
+    p->positions = p->streams[position].values;
+    for (size_t i = 0; i < (size_t)p->vertex_count * 3; ++i)
+        if (!isfinite(p->positions[i]))
+            return lp_fail(err, LP_INVALID, "%s: POSITION of vertex %zu is not finite (accessors[%lld])", where, i / 3,
+                           (long long)p->streams[position].accessor);
+    if (p->mode < 4) return LP_OK; /* points and lines pass through */
+    uint32_t *idx = NULL, n = 0;
+    if (g.indices >= 0) {
+        int rc = accessor_read_indices(s->doc, g.indices, p->vertex_count, &idx, &n, err);
+        if (rc) return rc;
+    } else {
+        n = p->vertex_count;
+        idx = malloc((n ? n : 1) * sizeof *idx);
+        if (!idx) return lp_fail(err, LP_INVALID, "%s: out of memory", where);
+        for (uint32_t i = 0; i < n; ++i) idx[i] = i;
+    }
+    int rc = triangulate(s, p, idx, n, where, err);
+    free(idx);
+    return rc;
+}
+
+static void mesh_bounds(scene_mesh *m)
+{
+    for (int k = 0; k < 3; ++k) {
+        m->bbox_min[k] = INFINITY;
+        m->bbox_max[k] = -INFINITY;
+    }
+    for (uint32_t p = 0; p < m->primitive_count; ++p) {
+        const scene_primitive *pr = &m->primitives[p];
+        m->triangle_count += pr->triangle_count;
+        for (size_t i = 0; i < (size_t)pr->triangle_count * 3; ++i) {
+            const float *v = pr->positions + 3 * (size_t)pr->triangles[i];
+            for (int k = 0; k < 3; ++k) {
+                if (v[k] < m->bbox_min[k]) m->bbox_min[k] = v[k];
+                if (v[k] > m->bbox_max[k]) m->bbox_max[k] = v[k];
+            }
+        }
+    }
+    m->has_bbox = m->triangle_count > 0;
+    if (!m->has_bbox) {
+        memset(m->bbox_min, 0, sizeof m->bbox_min);
+        memset(m->bbox_max, 0, sizeof m->bbox_max);
+    }
+    double d2 = 0.0;
+    for (int k = 0; k < 3; ++k) d2 += (m->bbox_max[k] - m->bbox_min[k]) * (m->bbox_max[k] - m->bbox_min[k]);
+    m->diagonal = sqrt(d2);
+}
+
+static int load_meshes(scene *s, lp_error *err)
+{
+    const size_t n = gltf_count(s->doc, GLTF_MESHES);
+    s->mesh_count = (uint32_t)n;
+    s->meshes = calloc(n ? n : 1, sizeof *s->meshes);
+    if (!s->meshes) return lp_fail(err, LP_INVALID, "out of memory for %zu meshes", n);
+    for (size_t m = 0; m < n; ++m) {
+        scene_mesh *mesh = &s->meshes[m];
+        mesh->name = gltf_name(s->doc, GLTF_MESHES, m);
+        const size_t prims = gltf_primitive_count(s->doc, m);
+        mesh->primitive_count = (uint32_t)prims;
+        mesh->primitives = calloc(prims ? prims : 1, sizeof *mesh->primitives);
+        if (!mesh->primitives) return lp_fail(err, LP_INVALID, "out of memory");
+        for (size_t p = 0; p < prims; ++p) {
+            int rc = load_primitive(s, m, p, &mesh->primitives[p], err);
+            if (rc) return rc;
+        }
+        mesh_bounds(mesh);
+    }
+    for (uint32_t i = 0; i < s->node_count; ++i)
+        if (s->nodes[i].in_scene && s->nodes[i].mesh >= 0) s->meshes[s->nodes[i].mesh].instance_count++;
+    for (uint32_t m = 0; m < s->mesh_count; ++m) {
+        s->meshes[m].instances = calloc(s->meshes[m].instance_count + 1, sizeof(uint32_t));
+        if (!s->meshes[m].instances) return lp_fail(err, LP_INVALID, "out of memory");
+        s->meshes[m].instance_count = 0;
+    }
+    for (uint32_t i = 0; i < s->node_count; ++i)
+        if (s->nodes[i].in_scene && s->nodes[i].mesh >= 0) {
+            scene_mesh *mesh = &s->meshes[s->nodes[i].mesh];
+            mesh->instances[mesh->instance_count++] = i;
+        }
+    return LP_OK;
+}
+
+int scene_load(const char *path, const scene_options *options, scene *out, lp_error *err)
+{
+    memset(out, 0, sizeof *out);
+    out->default_scene = -1;
+    char msg[sizeof err->msg];
+    int rc = gltf_load(path, options ? &options->load : NULL, &out->doc, msg, sizeof msg);
+    if (rc) return lp_fail(err, rc, "%s", msg);
+    rc = load_nodes(out, err);
+    if (!rc) rc = mark_scene(out, err);
+    if (!rc) rc = load_meshes(out, err);
+    if (rc) scene_free(out);
+    return rc;
+}
+
+void scene_free(scene *s)
+{
+    for (uint32_t m = 0; s->meshes && m < s->mesh_count; ++m) {
+        scene_mesh *mesh = &s->meshes[m];
+        for (uint32_t p = 0; mesh->primitives && p < mesh->primitive_count; ++p) {
+            scene_primitive *pr = &mesh->primitives[p];
+            for (uint32_t a = 0; pr->streams && a < pr->stream_count; ++a) free(pr->streams[a].values);
+            free(pr->streams);
+            free(pr->triangles);
+        }
+        free(mesh->primitives);
+        free(mesh->instances);
+    }
+    free(s->meshes);
+    free(s->nodes);
+    gltf_free(s->doc);
+    memset(s, 0, sizeof *s);
+}

@@ -1,0 +1,97 @@
+/* scene.h - the scene model: what lodpipe works on, in plain C structs.
+ *
+ * scene_load reads a glTF file through third_party/gltf_io and builds:
+ * meshes -> primitives -> attribute streams (float arrays) + triangle indices;
+ * nodes with world transforms; for each mesh, the nodes of the default scene
+ * that instance it. The gltf_doc handle keeps everything else of the document,
+ * untouched, for writing back.
+ *
+ * Promises after LP_OK:
+ * - every reference the model follows (node -> mesh/skin/camera/children,
+ *   scene -> nodes, primitive -> accessors/material) is in range;
+ * - the node graph is a forest (no cycles, no node with two parents, depth
+ *   <= SCENE_MAX_DEPTH);
+ * - every triangle index is < its primitive's vertex_count; every POSITION
+ *   value is finite;
+ * - triangle strips and fans are expanded into triangle lists; points and
+ *   lines have no triangles and pass through; a primitive without POSITION is
+ *   skipped (with a warning), as the spec tells clients to do.
+ * Otherwise it returns LP_INVALID or LP_IO with a message naming the object.
+ */
+#ifndef LODPIPE_SCENE_H
+#define LODPIPE_SCENE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "gltf_io/gltf_io.h"
+#include "status.h"
+
+#define SCENE_MAX_DEPTH 4096
+
+typedef struct scene_stream {
+    const char *name;   /* attribute semantic, owned by the document */
+    int64_t accessor;
+    uint32_t components;
+    float *values;      /* vertex_count * components */
+} scene_stream;
+
+typedef struct scene_primitive {
+    uint32_t index;     /* position within the glTF mesh's primitives */
+    int32_t mode;       /* glTF mode 0..6 */
+    int64_t material;   /* -1: none */
+    int64_t indices;    /* index accessor, -1: not indexed */
+    int skipped;        /* 1: no POSITION; not processed */
+    uint32_t vertex_count;
+    const float *positions;   /* = streams[position_stream].values, xyz */
+    uint32_t stream_count;
+    scene_stream *streams;    /* every attribute, POSITION included */
+    uint32_t triangle_count;  /* 0 for points and lines */
+    uint32_t *triangles;      /* 3 * triangle_count vertex indices */
+    uint32_t target_count;    /* morph targets (kept as accessors) */
+} scene_primitive;
+
+typedef struct scene_mesh {
+    const char *name;
+    uint32_t primitive_count;
+    scene_primitive *primitives;
+    uint32_t instance_count;  /* nodes of the default scene that use this mesh */
+    uint32_t *instances;
+    uint64_t triangle_count;
+    int has_bbox;
+    double bbox_min[3], bbox_max[3]; /* over vertices used by triangles */
+    double diagonal;
+} scene_mesh;
+
+typedef struct scene_node {
+    const char *name;
+    int64_t mesh, skin, parent;
+    int in_scene;        /* reachable from the default scene */
+    double world[16];    /* column-major, mesh space -> world */
+    uint32_t lod_count;  /* MSFT_lod ids already present */
+    const int64_t *lod_ids;
+} scene_node;
+
+typedef struct scene {
+    gltf_doc *doc;
+    int64_t default_scene; /* -1: the file has no scenes */
+    uint32_t mesh_count;
+    scene_mesh *meshes;
+    uint32_t node_count;
+    scene_node *nodes;
+    uint32_t warning_count;
+    char warnings[8][256]; /* the first few, for the CLI to print */
+} scene;
+
+typedef struct scene_options {
+    gltf_load_options load;
+} scene_options;
+
+int scene_load(const char *path, const scene_options *options, scene *out, lp_error *err);
+void scene_free(scene *s);
+
+/* Largest axis scale of a column-major 4x4 transform (length of the longest
+ * of the first three columns). */
+double scene_max_scale(const double m[16]);
+
+#endif

@@ -1,0 +1,28 @@
+/* status.h - lodpipe's exit codes and the one error record every module fills.
+ *
+ * A failing call fills an lp_error with the exit code it stands for and a
+ * one-line message that names the offending object ("accessors[3]: ..."); the
+ * CLI prints it as "lodpipe: FILE: message" and exits with the code. Nothing
+ * below the CLI prints or exits. */
+#ifndef LODPIPE_STATUS_H
+#define LODPIPE_STATUS_H
+
+enum {
+    LP_OK = 0,
+    LP_USAGE = 1,   /* the command line is wrong */
+    LP_INVALID = 2, /* the input is not valid glTF 2.0, or not usable */
+    LP_PROMISE = 3, /* a promise could not be kept (e.g. a bound could not be certified) */
+    LP_IO = 4       /* a file could not be read or written */
+};
+
+typedef struct lp_error {
+    int code;
+    char msg[512];
+} lp_error;
+
+/* Records code and a printf-style message; returns code, so callers can write
+ * `return lp_fail(err, LP_INVALID, "accessors[%zu]: ...", i);`. */
+int lp_fail(lp_error *err, int code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+#endif

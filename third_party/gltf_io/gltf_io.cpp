@@ -1,0 +1,1305 @@
+// gltf_io.cpp - the C bridge over tinygltf 2.7 and nlohmann json; see gltf_io.h.
+//
+// Loading keeps two views of one file: the JSON document exactly as read
+// (nlohmann::ordered_json, so the writer gives back what came in) and tinygltf's
+// Model, which resolves buffers and images (GLB chunk, data: URIs, external files).
+// tinygltf trusts the file in places (it indexes bufferViews and buffers without
+// checking, and its Draco path dereferences unchecked attributes), so everything it
+// would index is checked here first, and Draco is decoded through
+// third_party/draco_codec instead of tinygltf's own path.
+
+#define TINYGLTF_IMPLEMENTATION
+#define TINYGLTF_NO_STB_IMAGE
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#define TINYGLTF_NO_INCLUDE_STB_IMAGE
+#define TINYGLTF_NO_INCLUDE_STB_IMAGE_WRITE
+#define TINYGLTF_USE_CPP14
+#include <tiny_gltf.h>
+
+#include "gltf_io.h"
+#include "../draco_codec/draco_codec.h"
+
+#include <meshoptimizer.h>
+#include <nlohmann/json.hpp>
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using ojson = nlohmann::ordered_json;
+
+namespace {
+
+const uint64_t kDefaultMaxFileBytes = 2ull << 30; // 2 GiB
+const char *kDraco = "KHR_draco_mesh_compression";
+const char *kMeshopt = "EXT_meshopt_compression";
+
+// Extensions lodpipe can honour when a file lists them as required: the ones it
+// decodes, the quantization it reads, and those that only concern data it passes
+// through untouched (materials, textures, lights, instancing).
+const char *const kSupportedRequired[] = {
+    "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_mesh_quantization",
+    "KHR_texture_transform", "KHR_texture_basisu", "EXT_texture_webp", "EXT_texture_avif",
+    "KHR_materials_unlit", "KHR_materials_pbrSpecularGlossiness", "KHR_materials_emissive_strength",
+    "KHR_materials_clearcoat", "KHR_materials_transmission", "KHR_materials_volume",
+    "KHR_materials_ior", "KHR_materials_specular", "KHR_materials_sheen",
+    "KHR_materials_iridescence", "KHR_materials_anisotropy", "KHR_materials_dispersion",
+    "KHR_materials_variants", "KHR_lights_punctual", "EXT_mesh_gpu_instancing",
+    "KHR_xmp_json_ld", "KHR_texture_procedurals"};
+
+struct Failure {
+    int code;
+    std::string msg;
+};
+
+[[noreturn]] void fail(int code, const std::string &msg) { throw Failure{code, msg}; }
+
+std::string at(const char *array, size_t i) { return std::string(array) + "[" + std::to_string(i) + "]"; }
+
+// ---- schema: the types of every property glTF 2.0 defines -----------------------
+
+enum Kind { UINT, NUM, STR, BOOL, OBJ, ARR, ARR_UINT, ARR_NUM, ARR_STR, ARR_OBJ, ANY };
+
+struct Prop {
+    const char *name;
+    Kind kind;
+    const struct Shape *shape; // for OBJ / ARR_OBJ: the nested object's shape
+};
+
+struct Shape {
+    std::vector<Prop> props;
+};
+
+bool is_uint(const ojson &v) { return v.is_number_unsigned() || (v.is_number_integer() && v.get<int64_t>() >= 0); }
+
+const char *kind_name(Kind k)
+{
+    switch (k) {
+    case UINT: return "a non-negative integer";
+    case NUM: return "a number";
+    case STR: return "a string";
+    case BOOL: return "a boolean";
+    case OBJ: return "an object";
+    case ARR: return "an array";
+    case ARR_UINT: return "an array of non-negative integers";
+    case ARR_NUM: return "an array of numbers";
+    case ARR_STR: return "an array of strings";
+    case ARR_OBJ: return "an array of objects";
+    case ANY: return "anything";
+    }
+    return "?";
+}
+
+bool kind_ok(const ojson &v, Kind k)
+{
+    switch (k) {
+    case UINT: return is_uint(v);
+    case NUM: return v.is_number();
+    case STR: return v.is_string();
+    case BOOL: return v.is_boolean();
+    case OBJ: return v.is_object();
+    case ARR: return v.is_array();
+    case ARR_UINT:
+        if (!v.is_array()) return false;
+        for (auto &e : v) if (!is_uint(e)) return false;
+        return true;
+    case ARR_NUM:
+        if (!v.is_array()) return false;
+        for (auto &e : v) if (!e.is_number()) return false;
+        return true;
+    case ARR_STR:
+        if (!v.is_array()) return false;
+        for (auto &e : v) if (!e.is_string()) return false;
+        return true;
+    case ARR_OBJ:
+        if (!v.is_array()) return false;
+        for (auto &e : v) if (!e.is_object()) return false;
+        return true;
+    case ANY: return true;
+    }
+    return false;
+}
+
+void check_object(const ojson &o, const Shape &shape, const std::string &path);
+
+void check_value(const ojson &v, const Prop &p, const std::string &path)
+{
+    if (!kind_ok(v, p.kind)) fail(GLTF_INVALID, path + " must be " + kind_name(p.kind));
+    if (p.shape && p.kind == OBJ) check_object(v, *p.shape, path);
+    if (p.shape && p.kind == ARR_OBJ)
+        for (size_t i = 0; i < v.size(); ++i) check_object(v[i], *p.shape, path + "[" + std::to_string(i) + "]");
+}
+
+// "extensions" must be an object of objects; "extras" may be anything.
+void check_common(const ojson &o, const std::string &path)
+{
+    auto ext = o.find("extensions");
+    if (ext != o.end()) {
+        const std::string where = path.empty() ? std::string("extensions") : path + ".extensions";
+        if (!ext->is_object()) fail(GLTF_INVALID, where + " must be an object");
+        for (auto it = ext->begin(); it != ext->end(); ++it)
+            if (!it.value().is_object())
+                fail(GLTF_INVALID, where + "." + it.key() + " must be an object");
+    }
+    auto name = o.find("name");
+    if (name != o.end() && !name->is_string()) fail(GLTF_INVALID, path + ".name must be a string");
+}
+
+void check_object(const ojson &o, const Shape &shape, const std::string &path)
+{
+    check_common(o, path);
+    for (const Prop &p : shape.props) {
+        auto it = o.find(p.name);
+        if (it != o.end()) check_value(*it, p, path.empty() ? std::string(p.name) : path + "." + p.name);
+    }
+}
+
+const Shape kTextureInfo{{{"index", UINT, nullptr}, {"texCoord", UINT, nullptr}, {"scale", NUM, nullptr}, {"strength", NUM, nullptr}}};
+const Shape kPbr{{{"baseColorFactor", ARR_NUM, nullptr}, {"baseColorTexture", OBJ, &kTextureInfo},
+                  {"metallicFactor", NUM, nullptr}, {"roughnessFactor", NUM, nullptr},
+                  {"metallicRoughnessTexture", OBJ, &kTextureInfo}}};
+const Shape kMaterial{{{"pbrMetallicRoughness", OBJ, &kPbr}, {"normalTexture", OBJ, &kTextureInfo},
+                       {"occlusionTexture", OBJ, &kTextureInfo}, {"emissiveTexture", OBJ, &kTextureInfo},
+                       {"emissiveFactor", ARR_NUM, nullptr}, {"alphaMode", STR, nullptr},
+                       {"alphaCutoff", NUM, nullptr}, {"doubleSided", BOOL, nullptr}}};
+const Shape kSparseIndices{{{"bufferView", UINT, nullptr}, {"byteOffset", UINT, nullptr}, {"componentType", UINT, nullptr}}};
+const Shape kSparseValues{{{"bufferView", UINT, nullptr}, {"byteOffset", UINT, nullptr}}};
+const Shape kSparse{{{"count", UINT, nullptr}, {"indices", OBJ, &kSparseIndices}, {"values", OBJ, &kSparseValues}}};
+const Shape kAccessor{{{"bufferView", UINT, nullptr}, {"byteOffset", UINT, nullptr}, {"componentType", UINT, nullptr},
+                       {"normalized", BOOL, nullptr}, {"count", UINT, nullptr}, {"type", STR, nullptr},
+                       {"max", ARR_NUM, nullptr}, {"min", ARR_NUM, nullptr}, {"sparse", OBJ, &kSparse}}};
+const Shape kTarget{{{"node", UINT, nullptr}, {"path", STR, nullptr}}};
+const Shape kChannel{{{"sampler", UINT, nullptr}, {"target", OBJ, &kTarget}}};
+const Shape kAnimSampler{{{"input", UINT, nullptr}, {"output", UINT, nullptr}, {"interpolation", STR, nullptr}}};
+const Shape kAnimation{{{"channels", ARR_OBJ, &kChannel}, {"samplers", ARR_OBJ, &kAnimSampler}}};
+const Shape kAsset{{{"version", STR, nullptr}, {"minVersion", STR, nullptr}, {"generator", STR, nullptr}, {"copyright", STR, nullptr}}};
+const Shape kBuffer{{{"uri", STR, nullptr}, {"byteLength", UINT, nullptr}}};
+const Shape kBufferView{{{"buffer", UINT, nullptr}, {"byteOffset", UINT, nullptr}, {"byteLength", UINT, nullptr},
+                         {"byteStride", UINT, nullptr}, {"target", UINT, nullptr}}};
+const Shape kPerspective{{{"aspectRatio", NUM, nullptr}, {"yfov", NUM, nullptr}, {"zfar", NUM, nullptr}, {"znear", NUM, nullptr}}};
+const Shape kOrthographic{{{"xmag", NUM, nullptr}, {"ymag", NUM, nullptr}, {"zfar", NUM, nullptr}, {"znear", NUM, nullptr}}};
+const Shape kCamera{{{"type", STR, nullptr}, {"perspective", OBJ, &kPerspective}, {"orthographic", OBJ, &kOrthographic}}};
+const Shape kImage{{{"uri", STR, nullptr}, {"mimeType", STR, nullptr}, {"bufferView", UINT, nullptr}}};
+const Shape kPrimitive{{{"attributes", OBJ, nullptr}, {"indices", UINT, nullptr}, {"material", UINT, nullptr},
+                        {"mode", UINT, nullptr}, {"targets", ARR_OBJ, nullptr}}};
+const Shape kMesh{{{"primitives", ARR_OBJ, &kPrimitive}, {"weights", ARR_NUM, nullptr}}};
+const Shape kNode{{{"camera", UINT, nullptr}, {"children", ARR_UINT, nullptr}, {"skin", UINT, nullptr},
+                   {"matrix", ARR_NUM, nullptr}, {"mesh", UINT, nullptr}, {"rotation", ARR_NUM, nullptr},
+                   {"scale", ARR_NUM, nullptr}, {"translation", ARR_NUM, nullptr}, {"weights", ARR_NUM, nullptr}}};
+const Shape kSampler{{{"magFilter", UINT, nullptr}, {"minFilter", UINT, nullptr}, {"wrapS", UINT, nullptr}, {"wrapT", UINT, nullptr}}};
+const Shape kScene{{{"nodes", ARR_UINT, nullptr}}};
+const Shape kSkin{{{"inverseBindMatrices", UINT, nullptr}, {"skeleton", UINT, nullptr}, {"joints", ARR_UINT, nullptr}}};
+const Shape kTexture{{{"sampler", UINT, nullptr}, {"source", UINT, nullptr}}};
+const Shape kRoot{{{"extensionsUsed", ARR_STR, nullptr}, {"extensionsRequired", ARR_STR, nullptr},
+                   {"accessors", ARR_OBJ, &kAccessor}, {"animations", ARR_OBJ, &kAnimation},
+                   {"asset", OBJ, &kAsset}, {"buffers", ARR_OBJ, &kBuffer}, {"bufferViews", ARR_OBJ, &kBufferView},
+                   {"cameras", ARR_OBJ, &kCamera}, {"images", ARR_OBJ, &kImage}, {"materials", ARR_OBJ, &kMaterial},
+                   {"meshes", ARR_OBJ, &kMesh}, {"nodes", ARR_OBJ, &kNode}, {"samplers", ARR_OBJ, &kSampler},
+                   {"scene", UINT, nullptr}, {"scenes", ARR_OBJ, &kScene}, {"skins", ARR_OBJ, &kSkin},
+                   {"textures", ARR_OBJ, &kTexture}}};
+
+// Primitive attributes and morph targets map names to accessor indices.
+void check_attribute_maps(const ojson &root)
+{
+    auto meshes = root.find("meshes");
+    if (meshes == root.end()) return;
+    for (size_t m = 0; m < meshes->size(); ++m) {
+        const ojson &prims = (*meshes)[m].value("primitives", ojson::array());
+        for (size_t p = 0; p < prims.size(); ++p) {
+            std::string path = at("meshes", m) + ".primitives[" + std::to_string(p) + "]";
+            auto attrs = prims[p].find("attributes");
+            if (attrs == prims[p].end()) fail(GLTF_INVALID, path + " has no attributes");
+            for (auto it = attrs->begin(); it != attrs->end(); ++it)
+                if (!is_uint(it.value()))
+                    fail(GLTF_INVALID, path + ".attributes." + it.key() + " must be a non-negative integer");
+            auto targets = prims[p].find("targets");
+            if (targets == prims[p].end()) continue;
+            for (size_t t = 0; t < targets->size(); ++t)
+                for (auto it = (*targets)[t].begin(); it != (*targets)[t].end(); ++it)
+                    if (!is_uint(it.value()))
+                        fail(GLTF_INVALID, path + ".targets[" + std::to_string(t) + "]." + it.key() +
+                                               " must be a non-negative integer");
+        }
+    }
+}
+
+// ---- small helpers ---------------------------------------------------------------
+
+uint64_t u64(const ojson &o, const char *key, uint64_t def)
+{
+    auto it = o.find(key);
+    return it == o.end() ? def : it->get<uint64_t>();
+}
+
+int64_t i64_or_none(const ojson &o, const char *key)
+{
+    auto it = o.find(key);
+    return it == o.end() ? -1 : int64_t(it->get<uint64_t>() > (uint64_t(1) << 62) ? (uint64_t(1) << 62) : it->get<uint64_t>());
+}
+
+bool has_ext(const ojson &o, const char *name)
+{
+    auto e = o.find("extensions");
+    return e != o.end() && e->is_object() && e->contains(name);
+}
+
+void erase_ext(ojson &o, const char *name)
+{
+    auto e = o.find("extensions");
+    if (e == o.end()) return;
+    e->erase(name);
+    if (e->empty()) o.erase("extensions");
+}
+
+bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out, std::string *why)
+{
+    struct stat st;
+    if (stat(path.c_str(), &st) != 0) {
+        *why = std::string("cannot read (") + strerror(errno) + ")";
+        return false;
+    }
+    if (S_ISDIR(st.st_mode)) {
+        *why = "is a directory";
+        return false;
+    }
+    if (uint64_t(st.st_size) > cap) {
+        *why = "is larger than the " + std::to_string(cap) + "-byte limit";
+        return false;
+    }
+    FILE *f = fopen(path.c_str(), "rb");
+    if (!f) {
+        *why = std::string("cannot read (") + strerror(errno) + ")";
+        return false;
+    }
+    out->resize(size_t(st.st_size));
+    size_t got = out->empty() ? 0 : fread(out->data(), 1, out->size(), f);
+    bool ok = got == out->size() && !ferror(f);
+    fclose(f);
+    if (!ok) *why = "read failed";
+    return ok;
+}
+
+std::string dir_of(const std::string &path)
+{
+    size_t slash = path.find_last_of('/');
+    return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
+}
+
+std::string base_of(const std::string &path)
+{
+    size_t slash = path.find_last_of('/');
+    return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+bool ends_with_ci(const std::string &s, const char *suffix)
+{
+    size_t n = strlen(suffix);
+    if (s.size() < n) return false;
+    for (size_t i = 0; i < n; ++i)
+        if (tolower((unsigned char)s[s.size() - n + i]) != tolower((unsigned char)suffix[i])) return false;
+    return true;
+}
+
+bool is_data_uri(const std::string &uri) { return uri.compare(0, 5, "data:") == 0; }
+
+// An external uri must stay inside the input's folder: relative, no "..", no scheme.
+bool uri_escapes(const std::string &decoded)
+{
+    if (decoded.empty() || decoded[0] == '/' || decoded[0] == '\\') return true;
+    size_t colon = decoded.find(':'), slash = decoded.find('/');
+    if (colon != std::string::npos && (slash == std::string::npos || colon < slash)) return true;
+    std::stringstream ss(decoded);
+    std::string seg;
+    while (std::getline(ss, seg, '/'))
+        if (seg == "..") return true;
+    return false;
+}
+
+uint32_t rd32(const uint8_t *p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24; }
+
+void wr32(std::vector<uint8_t> &v, uint32_t x)
+{
+    for (int i = 0; i < 4; ++i) v.push_back(uint8_t(x >> (8 * i)));
+}
+
+int component_size(int ctype)
+{
+    switch (ctype) {
+    case 5120: case 5121: return 1;
+    case 5122: case 5123: return 2;
+    case 5125: case 5126: return 4;
+    default: return 0;
+    }
+}
+
+int type_components(const std::string &t, int *is_matrix)
+{
+    *is_matrix = 0;
+    if (t == "SCALAR") return 1;
+    if (t == "VEC2") return 2;
+    if (t == "VEC3") return 3;
+    if (t == "VEC4") return 4;
+    *is_matrix = 1;
+    if (t == "MAT2") return 4;
+    if (t == "MAT3") return 9;
+    if (t == "MAT4") return 16;
+    *is_matrix = 0;
+    return 0;
+}
+
+bool load_image_as_is(tinygltf::Image *image, const int, std::string *, std::string *, int, int,
+                      const unsigned char *bytes, int size, void *)
+{
+    image->image.assign(bytes, bytes + (size > 0 ? size : 0));
+    image->as_is = true;
+    return true;
+}
+
+} // namespace
+
+// ---- the document ----------------------------------------------------------------
+
+struct ViewBytes {
+    const uint8_t *ptr = nullptr; // into a loaded buffer, or into owned
+    size_t size = 0;
+    std::vector<uint8_t> owned;
+};
+
+struct CPrimitive {
+    std::vector<gltf_attribute> attributes;
+    std::vector<std::vector<gltf_attribute>> targets;
+    std::vector<size_t> target_counts;
+    std::vector<const gltf_attribute *> target_ptrs;
+    std::vector<std::string> names; // storage for attribute names
+    gltf_primitive rec;
+};
+
+struct __attribute__((visibility("default"))) gltf_doc;
+struct gltf_doc {
+    ojson json;
+    std::string path, dir;
+    tinygltf::Model model; // owns the loaded buffer and image bytes
+    std::vector<ViewBytes> views; // one per bufferViews[] entry, same order
+    std::set<size_t> dropped_if_unused; // Draco streams, dead after decoding
+    std::map<size_t, std::vector<uint8_t>> external_images; // image index -> file bytes
+
+    // C records, built after loading
+    std::vector<std::vector<CPrimitive>> prims;
+    std::vector<std::vector<int64_t>> node_children, node_lods, scene_nodes;
+    std::vector<std::string> names[GLTF_KIND_COUNT];
+    std::vector<std::string> ext_used, ext_required;
+};
+
+namespace {
+
+const char *const kKindArrays[GLTF_KIND_COUNT] = {"accessors", "animations", "buffers", "bufferViews", "cameras",
+                                                  "images", "materials", "meshes", "nodes", "samplers",
+                                                  "scenes", "skins", "textures"};
+
+const ojson &array_of(const ojson &root, const char *name)
+{
+    static const ojson empty = ojson::array();
+    auto it = root.find(name);
+    return it == root.end() ? empty : *it;
+}
+
+// Splits a GLB into its JSON text and BIN chunk, checking every length.
+void parse_glb(const std::vector<uint8_t> &file, std::string *json_text, const uint8_t **bin, size_t *bin_size)
+{
+    if (file.size() < 20) fail(GLTF_INVALID, "GLB file too short for a header (" + std::to_string(file.size()) + " bytes)");
+    if (rd32(&file[4]) != 2) fail(GLTF_INVALID, "GLB version " + std::to_string(rd32(&file[4])) + " is not 2");
+    if (rd32(&file[8]) != file.size())
+        fail(GLTF_INVALID, "GLB header says " + std::to_string(rd32(&file[8])) + " bytes but the file has " +
+                               std::to_string(file.size()));
+    size_t pos = 12;
+    *bin = nullptr;
+    *bin_size = 0;
+    bool have_json = false;
+    for (int chunk = 0; pos < file.size(); ++chunk) {
+        if (file.size() - pos < 8) fail(GLTF_INVALID, "GLB chunk " + std::to_string(chunk) + " header is truncated");
+        uint64_t len = rd32(&file[pos]);
+        uint32_t type = rd32(&file[pos + 4]);
+        pos += 8;
+        if (len > file.size() - pos)
+            fail(GLTF_INVALID, "GLB chunk " + std::to_string(chunk) + " runs past the end of the file");
+        if (chunk == 0) {
+            if (type != 0x4E4F534Au) fail(GLTF_INVALID, "GLB first chunk is not JSON");
+            json_text->assign(reinterpret_cast<const char *>(&file[pos]), size_t(len));
+            have_json = true;
+        } else if (chunk == 1 && type == 0x004E4942u) {
+            *bin = &file[pos];
+            *bin_size = size_t(len);
+        }
+        pos += size_t(len);
+    }
+    if (!have_json) fail(GLTF_INVALID, "GLB has no JSON chunk");
+}
+
+void check_asset_and_extensions(const ojson &root)
+{
+    auto asset = root.find("asset");
+    if (asset == root.end() || !asset->is_object()) fail(GLTF_INVALID, "asset is missing (not a glTF 2.0 file?)");
+    auto ver = asset->find("version");
+    if (ver == asset->end() || !ver->is_string()) fail(GLTF_INVALID, "asset.version is missing");
+    const std::string v = ver->get<std::string>();
+    if (v.size() < 2 || v[0] != '2' || v[1] != '.')
+        fail(GLTF_INVALID, "asset.version is \"" + v + "\"; only glTF 2.0 is supported");
+    auto required = root.find("extensionsRequired");
+    if (required == root.end()) return;
+    if (!kind_ok(*required, ARR_STR)) fail(GLTF_INVALID, "extensionsRequired must be an array of strings");
+    for (auto &name : *required) {
+        const std::string n = name.get<std::string>();
+        bool known = false;
+        for (const char *s : kSupportedRequired) known = known || n == s;
+        if (!known) fail(GLTF_INVALID, "extensionsRequired lists \"" + n + "\", which lodpipe does not support");
+    }
+}
+
+bool is_meshopt_fallback(const ojson &buffer)
+{
+    auto e = buffer.find("extensions");
+    if (e == buffer.end()) return false;
+    auto m = e->find(kMeshopt);
+    return m != e->end() && m->is_object() && m->value("fallback", false) == true;
+}
+
+// Checks everything tinygltf would index: buffer lengths and uris, bufferView
+// ranges against their buffers, images against bufferViews.
+void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, const std::string &dir)
+{
+    const ojson &buffers = array_of(root, "buffers");
+    for (size_t b = 0; b < buffers.size(); ++b) {
+        if (!buffers[b].contains("byteLength")) fail(GLTF_INVALID, at("buffers", b) + ".byteLength is missing");
+        if (buffers[b].contains("uri") && !is_meshopt_fallback(buffers[b])) {
+            const std::string uri = buffers[b]["uri"].get<std::string>();
+            if (!is_data_uri(uri)) {
+                const std::string decoded = tinygltf::dlib::urldecode(uri);
+                if (!opt.allow_external_uris && uri_escapes(decoded))
+                    fail(GLTF_INVALID, at("buffers", b) + ".uri \"" + uri +
+                                           "\" points outside the input's folder (use --allow-external-uris)");
+                struct stat st;
+                std::string full = tinygltf::JoinPath(dir, decoded);
+                if (stat(full.c_str(), &st) != 0) fail(GLTF_IO, at("buffers", b) + ": cannot read \"" + uri + "\"");
+                uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
+                if (uint64_t(st.st_size) > cap) fail(GLTF_INVALID, at("buffers", b) + ": \"" + uri + "\" is too large");
+            }
+        }
+    }
+    const ojson &views = array_of(root, "bufferViews");
+    for (size_t v = 0; v < views.size(); ++v) {
+        const ojson &view = views[v];
+        const std::string path = at("bufferViews", v);
+        if (!view.contains("buffer")) fail(GLTF_INVALID, path + ".buffer is missing");
+        if (!view.contains("byteLength")) fail(GLTF_INVALID, path + ".byteLength is missing");
+        uint64_t buffer = u64(view, "buffer", 0);
+        if (buffer >= buffers.size()) fail(GLTF_INVALID, path + ".buffer " + std::to_string(buffer) + " does not exist");
+        uint64_t offset = u64(view, "byteOffset", 0), length = u64(view, "byteLength", 0);
+        uint64_t buffer_len = u64(buffers[buffer], "byteLength", 0);
+        if (offset > buffer_len || length > buffer_len - offset)
+            fail(GLTF_INVALID, path + " (bytes " + std::to_string(offset) + ".." + std::to_string(offset + length) +
+                                   ") runs past the end of buffers[" + std::to_string(buffer) + "] (" +
+                                   std::to_string(buffer_len) + " bytes)");
+        uint64_t stride = u64(view, "byteStride", 0);
+        if (view.contains("byteStride") && (stride < 4 || stride > 252 || stride % 4))
+            fail(GLTF_INVALID, path + ".byteStride " + std::to_string(stride) + " is not a multiple of 4 in 4..252");
+        if (has_ext(view, kMeshopt)) {
+            const ojson &m = view["extensions"][kMeshopt];
+            for (const char *key : {"buffer", "byteLength", "byteStride", "count"})
+                if (!m.contains(key) || !is_uint(m[key])) fail(GLTF_INVALID, path + ".extensions." + kMeshopt + "." + key + " is missing or not a non-negative integer");
+            if (m.contains("byteOffset") && !is_uint(m["byteOffset"])) fail(GLTF_INVALID, path + ".extensions." + kMeshopt + ".byteOffset must be a non-negative integer");
+            uint64_t mb = u64(m, "buffer", 0), mo = u64(m, "byteOffset", 0), ml = u64(m, "byteLength", 0);
+            if (mb >= buffers.size() || is_meshopt_fallback(buffers[mb]))
+                fail(GLTF_INVALID, path + ": the compressed data's buffer " + std::to_string(mb) + " is missing");
+            uint64_t blen = u64(buffers[mb], "byteLength", 0);
+            if (mo > blen || ml > blen - mo) fail(GLTF_INVALID, path + ": the compressed data runs past the end of its buffer");
+        } else if (is_meshopt_fallback(buffers[buffer])) {
+            fail(GLTF_INVALID, path + " reads a meshopt fallback buffer but is not compressed");
+        }
+    }
+    const ojson &images = array_of(root, "images");
+    for (size_t i = 0; i < images.size(); ++i) {
+        const std::string path = at("images", i);
+        if (images[i].contains("bufferView")) {
+            uint64_t v = u64(images[i], "bufferView", 0);
+            if (v >= views.size()) fail(GLTF_INVALID, path + ".bufferView " + std::to_string(v) + " does not exist");
+            if (has_ext(views[v], kMeshopt)) fail(GLTF_INVALID, path + " is stored in a meshopt-compressed bufferView");
+        } else if (images[i].contains("uri")) {
+            const std::string uri = images[i]["uri"].get<std::string>();
+            if (!is_data_uri(uri)) {
+                const std::string decoded = tinygltf::dlib::urldecode(uri);
+                if (!opt.allow_external_uris && uri_escapes(decoded))
+                    fail(GLTF_INVALID, path + ".uri \"" + uri + "\" points outside the input's folder (use --allow-external-uris)");
+            }
+        }
+    }
+}
+
+// tinygltf is asked only for what it is used for: resolving buffers and images
+// (GLB chunk, data: URIs, external files). The rest of the document is read
+// here, so tinygltf's own rules for meshes and accessors (which reject valid
+// Draco files) never apply. A meshopt fallback buffer has no data by design, so
+// it gets a one-word stand-in; the views that read it are decoded instead.
+ojson json_for_tinygltf(const ojson &root)
+{
+    ojson reduced = ojson::object();
+    for (const char *key : {"asset", "buffers", "bufferViews", "images"})
+        if (root.contains(key)) reduced[key] = root[key];
+    auto buffers = reduced.find("buffers");
+    if (buffers != reduced.end())
+        for (auto &b : *buffers)
+            if (is_meshopt_fallback(b)) b = ojson{{"byteLength", 4}, {"uri", "data:application/octet-stream;base64,AAAAAA=="}};
+    return reduced;
+}
+
+void load_with_tinygltf(gltf_doc *doc, const ojson &root, bool glb, const uint8_t *bin, size_t bin_size)
+{
+    tinygltf::TinyGLTF loader;
+    loader.SetImageLoader(load_image_as_is, nullptr);
+    std::string err, warn;
+    const std::string text = json_for_tinygltf(root).dump();
+    bool ok;
+    if (glb) {
+        std::vector<uint8_t> glb_bytes;
+        size_t json_len = (text.size() + 3) & ~size_t(3);
+        size_t total = 12 + 8 + json_len + (bin ? 8 + ((bin_size + 3) & ~size_t(3)) : 0);
+        if (total > 0xFFFFFFFFu) fail(GLTF_INVALID, "GLB is too large");
+        glb_bytes.reserve(total);
+        for (char c : std::string("glTF")) glb_bytes.push_back(uint8_t(c));
+        wr32(glb_bytes, 2);
+        wr32(glb_bytes, uint32_t(total));
+        wr32(glb_bytes, uint32_t(json_len));
+        wr32(glb_bytes, 0x4E4F534Au);
+        glb_bytes.insert(glb_bytes.end(), text.begin(), text.end());
+        glb_bytes.resize(20 + json_len, ' ');
+        if (bin) {
+            wr32(glb_bytes, uint32_t((bin_size + 3) & ~size_t(3)));
+            wr32(glb_bytes, 0x004E4942u);
+            glb_bytes.insert(glb_bytes.end(), bin, bin + bin_size);
+            glb_bytes.resize(total, 0);
+        }
+        ok = loader.LoadBinaryFromMemory(&doc->model, &err, &warn, glb_bytes.data(), unsigned(glb_bytes.size()), doc->dir);
+    } else {
+        ok = loader.LoadASCIIFromString(&doc->model, &err, &warn, text.data(), unsigned(text.size()), doc->dir);
+    }
+    if (!ok) {
+        std::string first = err.substr(0, err.find('\n'));
+        bool io = first.find("File not found") != std::string::npos || first.find("Failed to load") != std::string::npos ||
+                  first.find("File open error") != std::string::npos || first.find("not found") != std::string::npos;
+        fail(io ? GLTF_IO : GLTF_INVALID, first.empty() ? "tinygltf could not load the file" : first);
+    }
+    const ojson &buffers = array_of(root, "buffers");
+    if (doc->model.buffers.size() != buffers.size()) fail(GLTF_INVALID, "buffers could not all be loaded");
+    for (size_t b = 0; b < buffers.size(); ++b) {
+        if (is_meshopt_fallback(buffers[b])) continue;
+        if (doc->model.buffers[b].data.size() != u64(buffers[b], "byteLength", 0))
+            fail(GLTF_INVALID, at("buffers", b) + " holds " + std::to_string(doc->model.buffers[b].data.size()) +
+                                   " bytes, not the declared byteLength " + std::to_string(u64(buffers[b], "byteLength", 0)));
+    }
+    const ojson &images = array_of(root, "images");
+    for (size_t i = 0; i < images.size() && i < doc->model.images.size(); ++i) {
+        if (!images[i].contains("uri") || images[i].contains("bufferView")) continue;
+        const std::string uri = images[i]["uri"].get<std::string>();
+        if (is_data_uri(uri)) continue;
+        if (doc->model.images[i].image.empty())
+            fail(GLTF_IO, at("images", i) + ": cannot read \"" + uri + "\"");
+        doc->external_images[i] = doc->model.images[i].image;
+    }
+}
+
+void decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view)
+{
+    const ojson &m = view["extensions"][kMeshopt];
+    const std::string path = at("bufferViews", v);
+    uint64_t stride = u64(m, "byteStride", 0), count = u64(m, "count", 0);
+    uint64_t length = u64(view, "byteLength", 0);
+    const std::string mode = m.value("mode", std::string());
+    const std::string filter = m.value("filter", std::string("NONE"));
+    if (stride == 0 || count > length / stride || count * stride != length)
+        fail(GLTF_INVALID, path + ": meshopt count * byteStride does not match byteLength");
+    const std::vector<uint8_t> &src = doc->model.buffers[u64(m, "buffer", 0)].data;
+    const uint8_t *in = src.data() + u64(m, "byteOffset", 0);
+    size_t in_len = size_t(u64(m, "byteLength", 0));
+    ViewBytes &out = doc->views[v];
+    out.owned.assign(size_t(length), 0);
+    int rc = -1;
+    if (mode == "ATTRIBUTES") {
+        if (stride % 4 || stride > 256) fail(GLTF_INVALID, path + ": meshopt ATTRIBUTES byteStride must be a multiple of 4 up to 256");
+        rc = meshopt_decodeVertexBuffer(out.owned.data(), size_t(count), size_t(stride), in, in_len);
+        if (rc == 0 && filter == "OCTAHEDRAL") {
+            if (stride != 4 && stride != 8) fail(GLTF_INVALID, path + ": OCTAHEDRAL filter needs byteStride 4 or 8");
+            meshopt_decodeFilterOct(out.owned.data(), size_t(count), size_t(stride));
+        } else if (rc == 0 && filter == "QUATERNION") {
+            if (stride != 8) fail(GLTF_INVALID, path + ": QUATERNION filter needs byteStride 8");
+            meshopt_decodeFilterQuat(out.owned.data(), size_t(count), size_t(stride));
+        } else if (rc == 0 && filter == "EXPONENTIAL") {
+            meshopt_decodeFilterExp(out.owned.data(), size_t(count), size_t(stride));
+        } else if (rc == 0 && filter != "NONE") {
+            fail(GLTF_INVALID, path + ": unknown meshopt filter \"" + filter + "\"");
+        }
+    } else if (mode == "TRIANGLES" || mode == "INDICES") {
+        if (stride != 2 && stride != 4) fail(GLTF_INVALID, path + ": meshopt index byteStride must be 2 or 4");
+        if (mode == "TRIANGLES") {
+            if (count % 3) fail(GLTF_INVALID, path + ": meshopt TRIANGLES count is not a multiple of 3");
+            rc = meshopt_decodeIndexBuffer(out.owned.data(), size_t(count), size_t(stride), in, in_len);
+        } else {
+            rc = meshopt_decodeIndexSequence(out.owned.data(), size_t(count), size_t(stride), in, in_len);
+        }
+    } else {
+        fail(GLTF_INVALID, path + ": unknown meshopt mode \"" + mode + "\"");
+    }
+    if (rc != 0) fail(GLTF_INVALID, path + ": EXT_meshopt_compression data does not decode (corrupt stream)");
+    out.ptr = out.owned.data();
+    out.size = out.owned.size();
+    erase_ext(view, kMeshopt);
+}
+
+void resolve_views(gltf_doc *doc)
+{
+    ojson &views = doc->json["bufferViews"];
+    if (views.is_null()) {
+        doc->json.erase("bufferViews");
+        return;
+    }
+    doc->views.resize(views.size());
+    for (size_t v = 0; v < views.size(); ++v) {
+        if (has_ext(views[v], kMeshopt)) {
+            decode_meshopt_view(doc, v, views[v]);
+            continue;
+        }
+        const std::vector<uint8_t> &data = doc->model.buffers[u64(views[v], "buffer", 0)].data;
+        doc->views[v].ptr = data.data() + u64(views[v], "byteOffset", 0);
+        doc->views[v].size = size_t(u64(views[v], "byteLength", 0));
+    }
+}
+
+size_t add_owned_view(gltf_doc *doc, std::vector<uint8_t> bytes, int target)
+{
+    ojson view = ojson::object();
+    view["buffer"] = 0;
+    view["byteLength"] = bytes.size();
+    if (target) view["target"] = target;
+    if (!doc->json.contains("bufferViews")) doc->json["bufferViews"] = ojson::array();
+    doc->json["bufferViews"].push_back(view);
+    ViewBytes vb;
+    vb.owned = std::move(bytes);
+    vb.ptr = vb.owned.data();
+    vb.size = vb.owned.size();
+    doc->views.push_back(std::move(vb));
+    return doc->views.size() - 1;
+}
+
+// Decodes one Draco primitive: every accessor it names gets a bufferView of its
+// own with the decoded values, in the accessor's declared component type.
+void decode_draco_primitive(gltf_doc *doc, ojson &prim, const std::string &path)
+{
+    const ojson &ext = prim["extensions"][kDraco];
+    if (!ext.contains("bufferView") || !is_uint(ext["bufferView"]))
+        fail(GLTF_INVALID, path + "." + kDraco + ".bufferView is missing");
+    if (!ext.contains("attributes") || !ext["attributes"].is_object())
+        fail(GLTF_INVALID, path + "." + kDraco + ".attributes is missing");
+    uint64_t v = ext["bufferView"].get<uint64_t>();
+    if (v >= doc->views.size()) fail(GLTF_INVALID, path + "." + kDraco + ".bufferView " + std::to_string(v) + " does not exist");
+    ojson &accessors = doc->json["accessors"];
+    const size_t accessor_count = accessors.is_array() ? accessors.size() : 0;
+    char why[256] = "";
+    draco_mesh *mesh = nullptr;
+    if (draco_decode_mesh(doc->views[v].ptr, doc->views[v].size, &mesh, why, sizeof why) != 0)
+        fail(GLTF_INVALID, path + ": " + why);
+    std::unique_ptr<draco_mesh, void (*)(draco_mesh *)> hold(mesh, draco_mesh_free);
+    const uint64_t points = draco_mesh_num_points(mesh), faces = draco_mesh_num_faces(mesh);
+
+    if (prim.contains("indices")) {
+        uint64_t a = prim["indices"].get<uint64_t>();
+        if (a >= accessor_count) fail(GLTF_INVALID, path + ".indices " + std::to_string(a) + " does not exist");
+        ojson &acc = accessors[a];
+        int ctype = int(u64(acc, "componentType", 0));
+        int size = component_size(ctype);
+        if (ctype != 5121 && ctype != 5123 && ctype != 5125) fail(GLTF_INVALID, at("accessors", a) + " has an invalid index componentType");
+        if (u64(acc, "count", 0) != faces * 3)
+            fail(GLTF_INVALID, at("accessors", a) + ".count " + std::to_string(u64(acc, "count", 0)) +
+                                   " differs from the Draco stream's " + std::to_string(faces * 3) + " indices");
+        std::vector<uint32_t> idx(size_t(faces * 3));
+        draco_mesh_read_indices(mesh, idx.data());
+        std::vector<uint8_t> bytes(idx.size() * size_t(size));
+        for (size_t i = 0; i < idx.size(); ++i) {
+            if (idx[i] >= points || (size < 4 && idx[i] >= (1u << (8 * size))))
+                fail(GLTF_INVALID, path + ": a Draco index is out of range");
+            memcpy(&bytes[i * size_t(size)], &idx[i], size_t(size)); // little-endian host
+        }
+        acc["bufferView"] = add_owned_view(doc, std::move(bytes), 34963);
+        acc.erase("byteOffset");
+    }
+    for (auto it = ext["attributes"].begin(); it != ext["attributes"].end(); ++it) {
+        if (!is_uint(it.value())) fail(GLTF_INVALID, path + "." + kDraco + ".attributes." + it.key() + " must be an integer");
+        auto attr = prim["attributes"].find(it.key());
+        if (attr == prim["attributes"].end())
+            fail(GLTF_INVALID, path + ": Draco attribute " + it.key() + " is not an attribute of the primitive");
+        uint64_t a = attr->get<uint64_t>();
+        if (a >= accessor_count) fail(GLTF_INVALID, path + ".attributes." + it.key() + " accessor does not exist");
+        ojson &acc = accessors[a];
+        if (acc.contains("bufferView")) continue; // already decoded (accessor shared by primitives)
+        int ctype = int(u64(acc, "componentType", 0)), is_matrix = 0;
+        int comps = type_components(acc.value("type", std::string()), &is_matrix);
+        if (!component_size(ctype) || comps < 1 || comps > 4 || is_matrix)
+            fail(GLTF_INVALID, at("accessors", a) + " has a type Draco cannot fill");
+        if (u64(acc, "count", 0) != points)
+            fail(GLTF_INVALID, at("accessors", a) + ".count " + std::to_string(u64(acc, "count", 0)) +
+                                   " differs from the Draco stream's " + std::to_string(points) + " points");
+        std::vector<uint8_t> bytes(size_t(points) * size_t(comps) * size_t(component_size(ctype)));
+        if (draco_mesh_read_attribute(mesh, uint32_t(it.value().get<uint64_t>()), ctype, comps, bytes.data(), why, sizeof why) != 0)
+            fail(GLTF_INVALID, path + ": Draco attribute " + it.key() + ": " + why);
+        // Vertex data: keep each element 4-byte aligned as the spec wants.
+        int esize = comps * component_size(ctype);
+        if (esize % 4) {
+            int stride = (esize + 3) & ~3;
+            std::vector<uint8_t> padded(size_t(points) * size_t(stride), 0);
+            for (size_t p = 0; p < points; ++p) memcpy(&padded[p * size_t(stride)], &bytes[p * size_t(esize)], size_t(esize));
+            size_t view = add_owned_view(doc, std::move(padded), 34962);
+            doc->json["bufferViews"][view]["byteStride"] = stride;
+            acc["bufferView"] = view;
+        } else {
+            acc["bufferView"] = add_owned_view(doc, std::move(bytes), 34962);
+        }
+        acc.erase("byteOffset");
+    }
+    doc->dropped_if_unused.insert(size_t(v));
+    erase_ext(prim, kDraco);
+}
+
+void remove_extension_name(ojson &root, const char *name)
+{
+    for (const char *list : {"extensionsUsed", "extensionsRequired"}) {
+        auto it = root.find(list);
+        if (it == root.end()) continue;
+        ojson kept = ojson::array();
+        for (auto &n : *it) if (n != name) kept.push_back(n);
+        if (kept.empty()) root.erase(list);
+        else *it = kept;
+    }
+}
+
+void decode_compression(gltf_doc *doc)
+{
+    bool had_draco = false;
+    auto meshes = doc->json.find("meshes");
+    if (meshes != doc->json.end())
+        for (size_t m = 0; m < meshes->size(); ++m) {
+            ojson &prims = (*meshes)[m]["primitives"];
+            if (!prims.is_array()) continue;
+            for (size_t p = 0; p < prims.size(); ++p)
+                if (has_ext(prims[p], kDraco)) {
+                    decode_draco_primitive(doc, prims[p], at("meshes", m) + ".primitives[" + std::to_string(p) + "]");
+                    had_draco = true;
+                }
+        }
+    if (had_draco) remove_extension_name(doc->json, kDraco);
+    remove_extension_name(doc->json, kMeshopt); // every meshopt view was decoded in resolve_views
+}
+
+// ---- C records -------------------------------------------------------------------
+
+void build_records(gltf_doc *doc)
+{
+    const ojson &root = doc->json;
+    for (int k = 0; k < GLTF_KIND_COUNT; ++k) {
+        const ojson &arr = array_of(root, kKindArrays[k]);
+        doc->names[k].resize(arr.size());
+        for (size_t i = 0; i < arr.size(); ++i) doc->names[k][i] = arr[i].value("name", std::string());
+    }
+    const ojson &meshes = array_of(root, "meshes");
+    doc->prims.resize(meshes.size());
+    for (size_t m = 0; m < meshes.size(); ++m) {
+        const ojson &prims = array_of(meshes[m], "primitives");
+        doc->prims[m].resize(prims.size());
+        for (size_t p = 0; p < prims.size(); ++p) {
+            CPrimitive &cp = doc->prims[m][p];
+            const ojson &pr = prims[p];
+            size_t name_count = pr["attributes"].size();
+            for (auto &t : array_of(pr, "targets")) name_count += t.size();
+            cp.names.reserve(name_count); // names must not move once pointed at
+            for (auto it = pr["attributes"].begin(); it != pr["attributes"].end(); ++it) {
+                cp.names.push_back(it.key());
+                cp.attributes.push_back({nullptr, int64_t(std::min<uint64_t>(it.value().get<uint64_t>(), uint64_t(1) << 62))});
+            }
+            for (size_t i = 0; i < cp.attributes.size(); ++i) cp.attributes[i].name = cp.names[i].c_str();
+            for (auto &t : array_of(pr, "targets")) {
+                std::vector<gltf_attribute> ta;
+                for (auto it = t.begin(); it != t.end(); ++it) {
+                    cp.names.push_back(it.key());
+                    ta.push_back({cp.names.back().c_str(), int64_t(std::min<uint64_t>(it.value().get<uint64_t>(), uint64_t(1) << 62))});
+                }
+                cp.targets.push_back(std::move(ta));
+            }
+            for (auto &t : cp.targets) {
+                cp.target_counts.push_back(t.size());
+                cp.target_ptrs.push_back(t.data());
+            }
+            gltf_primitive &r = cp.rec;
+            r.mode = int32_t(std::min<uint64_t>(u64(pr, "mode", 4), 1u << 30));
+            r.indices = i64_or_none(pr, "indices");
+            r.material = i64_or_none(pr, "material");
+            r.attribute_count = cp.attributes.size();
+            r.attributes = cp.attributes.data();
+            r.target_count = cp.targets.size();
+            r.target_attribute_counts = cp.target_counts.data();
+            r.target_attributes = cp.target_ptrs.data();
+            r.was_draco = 0;
+        }
+    }
+    const ojson &nodes = array_of(root, "nodes");
+    doc->node_children.resize(nodes.size());
+    doc->node_lods.resize(nodes.size());
+    for (size_t n = 0; n < nodes.size(); ++n) {
+        for (auto &c : array_of(nodes[n], "children")) doc->node_children[n].push_back(int64_t(std::min<uint64_t>(c.get<uint64_t>(), uint64_t(1) << 62)));
+        auto ext = nodes[n].find("extensions");
+        if (ext != nodes[n].end() && ext->contains("MSFT_lod")) {
+            const ojson &lod = (*ext)["MSFT_lod"];
+            auto ids = lod.find("ids");
+            if (ids != lod.end() && ids->is_array())
+                for (auto &id : *ids) doc->node_lods[n].push_back(is_uint(id) ? int64_t(std::min<uint64_t>(id.get<uint64_t>(), uint64_t(1) << 62)) : int64_t(-2));
+        }
+    }
+    const ojson &scenes = array_of(root, "scenes");
+    doc->scene_nodes.resize(scenes.size());
+    for (size_t s = 0; s < scenes.size(); ++s)
+        for (auto &n : array_of(scenes[s], "nodes")) doc->scene_nodes[s].push_back(int64_t(std::min<uint64_t>(n.get<uint64_t>(), uint64_t(1) << 62)));
+    for (auto &n : array_of(root, "extensionsUsed")) doc->ext_used.push_back(n.get<std::string>());
+    for (auto &n : array_of(root, "extensionsRequired")) doc->ext_required.push_back(n.get<std::string>());
+}
+
+void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
+{
+    const uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
+    std::vector<uint8_t> file;
+    std::string why;
+    if (!read_file(path, cap, &file, &why)) fail(errno == ENOENT || why.compare(0, 11, "cannot read") == 0 ? GLTF_IO : GLTF_INVALID, why);
+    if (file.empty()) fail(GLTF_INVALID, "file is empty");
+    doc->path = path;
+    doc->dir = dir_of(path);
+
+    const bool glb = file.size() >= 4 && memcmp(file.data(), "glTF", 4) == 0;
+    if (!glb && ends_with_ci(path, ".glb")) fail(GLTF_INVALID, "not a GLB file (the first 4 bytes are not \"glTF\")");
+    std::string text;
+    const uint8_t *bin = nullptr;
+    size_t bin_size = 0;
+    if (glb) parse_glb(file, &text, &bin, &bin_size);
+    else text.assign(file.begin(), file.end());
+
+    try {
+        doc->json = ojson::parse(text);
+    } catch (const ojson::parse_error &e) {
+        fail(GLTF_INVALID, std::string("JSON does not parse (byte ") + std::to_string(e.byte) + ")");
+    }
+    if (!doc->json.is_object()) fail(GLTF_INVALID, "the JSON document is not an object");
+    check_asset_and_extensions(doc->json);
+    check_object(doc->json, kRoot, "");
+    check_attribute_maps(doc->json);
+    check_buffers_and_views(doc->json, opt, doc->dir);
+    if (glb) {
+        const ojson &buffers = array_of(doc->json, "buffers");
+        if (!buffers.empty() && !buffers[0].contains("uri") && !is_meshopt_fallback(buffers[0]) && !bin)
+            fail(GLTF_INVALID, "buffers[0] refers to the GLB BIN chunk, but there is none");
+    }
+    load_with_tinygltf(doc, doc->json, glb, bin, bin_size);
+    resolve_views(doc);
+    decode_compression(doc);
+    build_records(doc);
+}
+
+} // namespace
+
+// ---- C API: loading and reading ----------------------------------------------------
+
+extern "C" int gltf_load(const char *path, const gltf_load_options *options, gltf_doc **out, char *err, size_t errlen)
+{
+    *out = nullptr;
+    gltf_load_options opt{};
+    if (options) opt = *options;
+    gltf_doc *doc = nullptr;
+    try {
+        doc = new gltf_doc;
+        load(doc, path, opt);
+        *out = doc;
+        return GLTF_OK;
+    } catch (const Failure &f) {
+        snprintf(err, errlen, "%s", f.msg.c_str());
+        delete doc;
+        return f.code;
+    } catch (const std::bad_alloc &) {
+        snprintf(err, errlen, "out of memory while loading");
+        delete doc;
+        return GLTF_INVALID;
+    } catch (const std::exception &e) {
+        snprintf(err, errlen, "malformed glTF (%s)", e.what());
+        delete doc;
+        return GLTF_INVALID;
+    }
+}
+
+extern "C" void gltf_free(gltf_doc *doc) { delete doc; }
+
+extern "C" size_t gltf_count(const gltf_doc *doc, gltf_kind kind)
+{
+    if (kind < 0 || kind >= GLTF_KIND_COUNT) return 0;
+    if (kind == GLTF_BUFFER_VIEWS) return doc->views.size();
+    return array_of(doc->json, kKindArrays[kind]).size();
+}
+
+extern "C" const char *gltf_name(const gltf_doc *doc, gltf_kind kind, size_t index)
+{
+    if (kind < 0 || kind >= GLTF_KIND_COUNT || index >= doc->names[kind].size()) return "";
+    return doc->names[kind][index].c_str();
+}
+
+extern "C" int gltf_get_view(const gltf_doc *doc, size_t index, gltf_view *out)
+{
+    if (index >= doc->views.size()) return -1;
+    out->data = doc->views[index].ptr;
+    out->byte_length = doc->views[index].size;
+    out->byte_stride = u64(doc->json["bufferViews"][index], "byteStride", 0);
+    return 0;
+}
+
+extern "C" int gltf_get_accessor(const gltf_doc *doc, size_t index, gltf_accessor *out)
+{
+    const ojson &arr = array_of(doc->json, "accessors");
+    if (index >= arr.size()) return -1;
+    const ojson &a = arr[index];
+    memset(out, 0, sizeof *out);
+    out->buffer_view = i64_or_none(a, "bufferView");
+    out->byte_offset = u64(a, "byteOffset", 0);
+    out->component_type = int32_t(std::min<uint64_t>(u64(a, "componentType", 0), 1u << 30));
+    out->normalized = a.value("normalized", false) ? 1 : 0;
+    out->count = u64(a, "count", 0);
+    int is_matrix = 0;
+    out->components = type_components(a.value("type", std::string()), &is_matrix);
+    out->is_matrix = is_matrix;
+    auto sp = a.find("sparse");
+    out->sparse_indices_view = out->sparse_values_view = -1;
+    if (sp != a.end()) {
+        out->has_sparse = 1;
+        out->sparse_count = u64(*sp, "count", 0);
+        const ojson &si = sp->value("indices", ojson::object());
+        const ojson &sv = sp->value("values", ojson::object());
+        out->sparse_indices_view = i64_or_none(si, "bufferView");
+        out->sparse_indices_offset = u64(si, "byteOffset", 0);
+        out->sparse_indices_type = int32_t(std::min<uint64_t>(u64(si, "componentType", 0), 1u << 30));
+        out->sparse_values_view = i64_or_none(sv, "bufferView");
+        out->sparse_values_offset = u64(sv, "byteOffset", 0);
+    }
+    return 0;
+}
+
+extern "C" size_t gltf_primitive_count(const gltf_doc *doc, size_t mesh)
+{
+    return mesh < doc->prims.size() ? doc->prims[mesh].size() : 0;
+}
+
+extern "C" int gltf_get_primitive(const gltf_doc *doc, size_t mesh, size_t prim, gltf_primitive *out)
+{
+    if (mesh >= doc->prims.size() || prim >= doc->prims[mesh].size()) return -1;
+    *out = doc->prims[mesh][prim].rec;
+    return 0;
+}
+
+extern "C" int gltf_get_node(const gltf_doc *doc, size_t index, gltf_node *out)
+{
+    const ojson &nodes = array_of(doc->json, "nodes");
+    if (index >= nodes.size()) return -1;
+    const ojson &n = nodes[index];
+    memset(out, 0, sizeof *out);
+    out->mesh = i64_or_none(n, "mesh");
+    out->skin = i64_or_none(n, "skin");
+    out->camera = i64_or_none(n, "camera");
+    out->child_count = doc->node_children[index].size();
+    out->children = doc->node_children[index].data();
+    for (int i = 0; i < 16; ++i) out->matrix[i] = (i % 5 == 0) ? 1.0 : 0.0;
+    out->rotation[3] = 1.0;
+    out->scale[0] = out->scale[1] = out->scale[2] = 1.0;
+    auto copy = [&](const char *key, double *dst, size_t want) {
+        auto it = n.find(key);
+        if (it == n.end()) return;
+        for (size_t i = 0; i < want && i < it->size(); ++i) dst[i] = (*it)[i].get<double>();
+    };
+    if (n.contains("matrix")) {
+        out->has_matrix = 1;
+        copy("matrix", out->matrix, 16);
+    }
+    copy("translation", out->translation, 3);
+    copy("rotation", out->rotation, 4);
+    copy("scale", out->scale, 3);
+    out->weight_count = n.contains("weights") ? n["weights"].size() : 0;
+    out->lod_count = doc->node_lods[index].size();
+    out->lod_ids = doc->node_lods[index].data();
+    auto extras = n.find("extras");
+    out->has_screencoverage = extras != n.end() && extras->is_object() && extras->contains("MSFT_screencoverage");
+    return 0;
+}
+
+extern "C" int gltf_get_scene(const gltf_doc *doc, size_t index, gltf_scene *out)
+{
+    if (index >= doc->scene_nodes.size()) return -1;
+    out->node_count = doc->scene_nodes[index].size();
+    out->nodes = doc->scene_nodes[index].data();
+    return 0;
+}
+
+extern "C" int64_t gltf_default_scene(const gltf_doc *doc) { return i64_or_none(doc->json, "scene"); }
+
+extern "C" size_t gltf_extension_count(const gltf_doc *doc, int required)
+{
+    return required ? doc->ext_required.size() : doc->ext_used.size();
+}
+
+extern "C" const char *gltf_extension_name(const gltf_doc *doc, int required, size_t index)
+{
+    const std::vector<std::string> &v = required ? doc->ext_required : doc->ext_used;
+    return index < v.size() ? v[index].c_str() : "";
+}
+
+// ---- C API: editing ----------------------------------------------------------------
+
+extern "C" int64_t gltf_add_view(gltf_doc *doc, const void *bytes, size_t size, uint64_t byte_stride, int target)
+{
+    try {
+        const uint8_t *b = static_cast<const uint8_t *>(bytes);
+        size_t v = add_owned_view(doc, std::vector<uint8_t>(b, b + size), target);
+        if (byte_stride) doc->json["bufferViews"][v]["byteStride"] = byte_stride;
+        return int64_t(v);
+    } catch (...) {
+        return -1;
+    }
+}
+
+extern "C" int64_t gltf_append_json(gltf_doc *doc, const char *array, const char *json)
+{
+    try {
+        ojson value = ojson::parse(json);
+        if (!value.is_object()) return -1;
+        if (!doc->json.contains(array)) doc->json[array] = ojson::array();
+        ojson &arr = doc->json[array];
+        if (!arr.is_array()) return -1;
+        arr.push_back(std::move(value));
+        return int64_t(arr.size() - 1);
+    } catch (...) {
+        return -1;
+    }
+}
+
+extern "C" int gltf_set_json(gltf_doc *doc, const char *pointer, const char *json)
+{
+    try {
+        doc->json[ojson::json_pointer(pointer)] = ojson::parse(json);
+        return 0;
+    } catch (...) {
+        return -1;
+    }
+}
+
+extern "C" void gltf_use_extension(gltf_doc *doc, const char *name, int required)
+{
+    for (const char *list : {"extensionsUsed", "extensionsRequired"}) {
+        if (list[10] == 'R' && !required) continue;
+        ojson &arr = doc->json[list];
+        if (!arr.is_array()) arr = ojson::array();
+        bool present = false;
+        for (auto &n : arr) present = present || n == name;
+        if (!present) arr.push_back(name);
+    }
+}
+
+// ---- writing -----------------------------------------------------------------------
+
+namespace {
+
+// Every place a bufferView index can stand: accessors, sparse, images, and any
+// "bufferView" inside an extension object (extensions we do not know may point
+// at views too).
+template <typename F> void for_each_view_ref(ojson &root, F &&f)
+{
+    auto each = [&](ojson &o) {
+        auto it = o.find("bufferView");
+        if (it != o.end() && is_uint(*it)) f(*it);
+    };
+    if (root.contains("accessors"))
+        for (auto &a : root["accessors"]) {
+            each(a);
+            if (a.contains("sparse")) {
+                if (a["sparse"].contains("indices")) each(a["sparse"]["indices"]);
+                if (a["sparse"].contains("values")) each(a["sparse"]["values"]);
+            }
+        }
+    if (root.contains("images"))
+        for (auto &i : root["images"]) each(i);
+    std::function<void(ojson &, bool)> walk = [&](ojson &o, bool in_ext) {
+        if (o.is_object()) {
+            if (in_ext) each(o);
+            for (auto it = o.begin(); it != o.end(); ++it) {
+                if (it.key() == "extras") continue;
+                walk(it.value(), in_ext || it.key() == "extensions");
+            }
+        } else if (o.is_array()) {
+            for (auto &e : o) walk(e, in_ext);
+        }
+    };
+    walk(root, false);
+}
+
+std::vector<uint8_t> bytes_of(const std::string &s) { return std::vector<uint8_t>(s.begin(), s.end()); }
+
+void add_file(std::vector<gltf_out_file> &files, const std::string &name, const std::vector<uint8_t> &bytes)
+{
+    gltf_out_file f{};
+    f.name = strdup(name.c_str());
+    f.size = bytes.size();
+    f.bytes = static_cast<uint8_t *>(malloc(bytes.empty() ? 1 : bytes.size()));
+    if (!f.name || !f.bytes) {
+        free(f.name);
+        free(f.bytes);
+        throw std::bad_alloc();
+    }
+    if (!bytes.empty()) memcpy(f.bytes, bytes.data(), bytes.size());
+    files.push_back(f);
+}
+
+void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<gltf_out_file> &files)
+{
+    ojson root = doc->json;
+    const bool glb = ends_with_ci(out_path, ".glb");
+    std::string stem = base_of(out_path);
+    size_t dot = stem.find_last_of('.');
+    if (dot != std::string::npos && dot > 0) stem = stem.substr(0, dot);
+
+    // Which views survive: all, except decoded Draco streams nothing points at now.
+    std::vector<int> used(doc->views.size(), 0);
+    for_each_view_ref(root, [&](ojson &ref) {
+        uint64_t v = ref.get<uint64_t>();
+        if (v < used.size()) used[v] = 1;
+    });
+    std::vector<int64_t> remap(doc->views.size(), -1);
+    std::vector<uint8_t> bin;
+    ojson views = ojson::array();
+    for (size_t v = 0; v < doc->views.size(); ++v) {
+        if (!used[v] && doc->dropped_if_unused.count(v)) continue;
+        ojson view = doc->json["bufferViews"][v];
+        while (bin.size() % 4) bin.push_back(0);
+        view["buffer"] = 0;
+        view["byteOffset"] = bin.size();
+        view["byteLength"] = doc->views[v].size;
+        if (view["byteOffset"] == 0) view.erase("byteOffset");
+        // keep the key order of the original object: re-insert in place
+        ojson ordered = ojson::object();
+        for (auto it = doc->json["bufferViews"][v].begin(); it != doc->json["bufferViews"][v].end(); ++it)
+            if (view.contains(it.key())) ordered[it.key()] = view[it.key()];
+        for (auto it = view.begin(); it != view.end(); ++it)
+            if (!ordered.contains(it.key())) ordered[it.key()] = it.value();
+        bin.insert(bin.end(), doc->views[v].ptr, doc->views[v].ptr + doc->views[v].size);
+        remap[v] = int64_t(views.size());
+        views.push_back(ordered);
+    }
+    for_each_view_ref(root, [&](ojson &ref) {
+        uint64_t v = ref.get<uint64_t>();
+        if (v < remap.size() && remap[v] >= 0) ref = remap[v];
+    });
+    if (views.empty()) root.erase("bufferViews");
+    else root["bufferViews"] = views;
+
+    // One buffer: it keeps the first original buffer's name, extras and extensions.
+    if (bin.empty() && views.empty()) {
+        root.erase("buffers");
+    } else {
+        ojson buffer = ojson::object();
+        const ojson &old = array_of(doc->json, "buffers");
+        if (!old.empty() && !is_meshopt_fallback(old[0])) buffer = old[0];
+        buffer.erase("uri");
+        erase_ext(buffer, kMeshopt);
+        if (!glb) buffer["uri"] = stem + ".bin";
+        buffer["byteLength"] = bin.size();
+        root["buffers"] = ojson::array({buffer});
+    }
+
+    // External images travel beside the output under their own relative uri.
+    std::vector<std::pair<std::string, const std::vector<uint8_t> *>> images;
+    for (auto &kv : doc->external_images) {
+        const std::string decoded = tinygltf::dlib::urldecode(doc->json["images"][kv.first]["uri"].get<std::string>());
+        images.push_back({decoded, &kv.second});
+    }
+
+    if (glb) {
+        std::string text = root.dump(-1, ' ', false, ojson::error_handler_t::strict);
+        while (text.size() % 4) text.push_back(' ');
+        size_t bin_padded = (bin.size() + 3) & ~size_t(3);
+        uint64_t total = 12 + 8 + text.size() + (bin.empty() ? 0 : 8 + bin_padded);
+        if (total > 0xFFFFFFFFull) fail(GLTF_INVALID, "output is larger than the 4 GiB a GLB can hold");
+        std::vector<uint8_t> out;
+        out.reserve(size_t(total));
+        for (char c : std::string("glTF")) out.push_back(uint8_t(c));
+        wr32(out, 2);
+        wr32(out, uint32_t(total));
+        wr32(out, uint32_t(text.size()));
+        wr32(out, 0x4E4F534Au);
+        out.insert(out.end(), text.begin(), text.end());
+        if (!bin.empty()) {
+            wr32(out, uint32_t(bin_padded));
+            wr32(out, 0x004E4942u);
+            out.insert(out.end(), bin.begin(), bin.end());
+            out.resize(size_t(total), 0);
+        }
+        add_file(files, base_of(out_path), out);
+    } else {
+        std::string text = root.dump(2, ' ', false, ojson::error_handler_t::strict);
+        text.push_back('\n');
+        add_file(files, base_of(out_path), bytes_of(text));
+        if (!bin.empty() || !views.empty()) add_file(files, stem + ".bin", bin);
+    }
+    for (auto &img : images) add_file(files, img.first, *img.second);
+}
+
+} // namespace
+
+extern "C" int gltf_serialize(const gltf_doc *doc, const char *out_path, gltf_out_file **files, size_t *file_count,
+                              char *err, size_t errlen)
+{
+    *files = nullptr;
+    *file_count = 0;
+    std::vector<gltf_out_file> out;
+    try {
+        serialize(doc, out_path, out);
+    } catch (const Failure &f) {
+        gltf_free_files(out.data(), out.size());
+        snprintf(err, errlen, "%s", f.msg.c_str());
+        return f.code;
+    } catch (const std::exception &e) {
+        gltf_free_files(out.data(), out.size());
+        snprintf(err, errlen, "cannot serialize (%s)", e.what());
+        return GLTF_IO;
+    }
+    *files = static_cast<gltf_out_file *>(malloc(sizeof(gltf_out_file) * (out.empty() ? 1 : out.size())));
+    if (!*files) {
+        gltf_free_files(out.data(), out.size());
+        snprintf(err, errlen, "out of memory");
+        return GLTF_IO;
+    }
+    if (!out.empty()) memcpy(*files, out.data(), sizeof(gltf_out_file) * out.size());
+    *file_count = out.size();
+    return GLTF_OK;
+}
+
+extern "C" void gltf_free_files(gltf_out_file *files, size_t file_count)
+{
+    if (!files) return;
+    for (size_t i = 0; i < file_count; ++i) {
+        free(files[i].name);
+        free(files[i].bytes);
+    }
+}
