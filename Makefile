@@ -107,5 +107,13 @@ test: deps
 	LODPIPE_BIN=$(abspath $(BUILD)/asan/lodpipe) LODPIPE_BUILD=$(abspath $(BUILD)) \
 	LODPIPE_SHARED=$(SHARED) node --test --test-concurrency=2 tests/
 
+# The independent Hausdorff measure (../shared/tools/hausdorff, CGAL), built from a
+# copy so the shared folder stays read-only.
+hausdorff: $(BUILD)/hausdorff/hausdorff
+$(BUILD)/hausdorff/hausdorff: $(wildcard $(SHARED)/tools/hausdorff/*)
+	@mkdir -p $(BUILD)/hausdorff
+	cp $(SHARED)/tools/hausdorff/* $(BUILD)/hausdorff/
+	$(MAKE) -C $(BUILD)/hausdorff
+
 clean:
 	rm -rf $(BUILD) out
