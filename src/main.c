@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "output.h"
 #include "scene.h"
@@ -127,9 +128,20 @@ static int cmd_inspect(const cli *c)
     return LP_OK;
 }
 
+/* The output format follows the name: .glb, or .gltf (JSON + .bin). */
+static int output_name_ok(const char *out)
+{
+    size_t n = strlen(out);
+    return (n > 4 && strcasecmp(out + n - 4, ".glb") == 0) || (n > 5 && strcasecmp(out + n - 5, ".gltf") == 0);
+}
+
 static int cmd_convert(const cli *c)
 {
     const char *in = c->operands[0], *out = c->operands[1];
+    if (!output_name_ok(out)) {
+        fprintf(stderr, "lodpipe: %s: the output name must end in .glb or .gltf\n", out);
+        return LP_USAGE;
+    }
     if (!c->force && output_same_file(in, out)) {
         fprintf(stderr, "lodpipe: %s: refusing to overwrite the input (use --force)\n", out);
         return LP_USAGE;
