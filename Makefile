@@ -14,9 +14,11 @@ CXX     ?= g++
 BUILD   := build
 SHARED  ?= $(abspath ../shared)
 
-DEBIAN_PACKAGES := g++ make pkg-config python3 nodejs npm \
-	libtinygltf-dev nlohmann-json3-dev libstb-dev libdraco-dev libmeshoptimizer-dev \
-	libopenmesh-dev libtomlplusplus-dev libcgal-dev
+# Libraries are checked with dpkg; tools by their command, so a machine whose node
+# or compiler came from elsewhere is not asked to install a conflicting package.
+DEBIAN_PACKAGES := pkg-config libtinygltf-dev nlohmann-json3-dev libstb-dev libdraco-dev \
+	libmeshoptimizer-dev libopenmesh-dev libtomlplusplus-dev libcgal-dev
+DEBIAN_TOOLS := g++:g++ make:make python3:python3 node:nodejs npm:npm
 
 CPPFLAGS_COMMON := -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L -Isrc -Ithird_party
 CFLAGS_COMMON   := -std=c11 -Wall -Wextra -Werror -pthread
@@ -74,19 +76,19 @@ $(BUILD)/asan/test_%: tests/unit/test_%.c $(LIB_OBJ_SAN)
 # ---- dependencies ------------------------------------------------------------------
 # Installs only what is missing, so it is a quick no-op on a prepared machine.
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
-deps: tests/node_modules/.installed
+deps:
 	@missing=""; for p in $(DEBIAN_PACKAGES); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
 	done; \
+	for tp in $(DEBIAN_TOOLS); do command -v $${tp%%:*} >/dev/null 2>&1 || missing="$$missing $${tp##*:}"; done; \
 	if [ -n "$$missing" ]; then \
 	  echo "installing:$$missing"; \
 	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
 	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; \
 	fi
+	@$(MAKE) --no-print-directory tests/node_modules/.installed
 
 tests/node_modules/.installed: tests/package.json tests/package-lock.json
-	@command -v npm >/dev/null 2>&1 || { $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
-	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends nodejs npm; }
 	cd tests && npm ci --no-audit --no-fund --loglevel=error
 	@touch $@
 

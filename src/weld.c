@@ -1,0 +1,679 @@
+/* weld.c - welding a glTF mesh into one topology; see weld.h.
+ *
+ * Follows: Hoppe, "Progressive meshes" (SIGGRAPH 1996) and "Efficient
+ * implementation of progressive meshes" (1998) for wedges (one position, one
+ * attribute set per face corner group); Garland & Heckbert, "Simplifying
+ * surfaces with color and texture using quadric error metrics" (1998) for
+ * attribute discontinuities as constraints; and the idea of meshoptimizer's
+ * simplifier (Kapoulkine) of classifying vertices once into manifold /
+ * border / seam / locked and allowing collapses by a small table. The code
+ * is our own.
+ *
+ * The outline, each step a static function below:
+ *   count_input        sizes and limits
+ *   weld_positions     glTF vertex -> provisional position id (hash by bits)
+ *   number_kept        drop degenerate triangles, number kept vertices and wedges
+ *   fill_arrays        wedges, triangles, positions
+ *   build_vertex_triangles   CSR vertex -> triangles
+ *   classify_wedges    wedge classes (hash by attribute values)
+ *   pair_edges         opposite edge / border / non-manifold (hash by edge)
+ *   mark_seams         seam flag of manifold interior edges
+ *   classify_vertices  walk each umbrella, apply the kind rules
+ *   count_dangling     statistics on dropped triangles */
+#include "weld.h"
+
+#include <assert.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define NONE UINT32_MAX
+
+/* ---- hashing (deterministic, no seeds from the environment) ---------------- */
+
+/* -0.0 and +0.0 are the same point and the same attribute value. */
+static uint32_t float_key(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    return u == 0x80000000u ? 0u : u;
+}
+
+static uint32_t mix32(uint32_t h)
+{
+    h ^= h >> 16;
+    h *= 0x7feb352du;
+    h ^= h >> 15;
+    h *= 0x846ca68bu;
+    h ^= h >> 16;
+    return h;
+}
+
+static uint32_t hash_step(uint32_t h, uint32_t v)
+{
+    return mix32(h ^ (v + 0x9e3779b9u + (h << 6) + (h >> 2)));
+}
+
+/* Smallest power of two >= 2 * n (at least 16): load factor <= 1/2. */
+static size_t table_capacity(size_t n)
+{
+    size_t c = 16;
+    while (c < 2 * n) c *= 2;
+    return c;
+}
+
+static void *alloc_array(size_t count, size_t size)
+{
+    return malloc((count ? count : 1) * size);
+}
+
+static int is_welded(const scene_primitive *p)
+{
+    return !p->skipped && p->triangle_count > 0;
+}
+
+/* ---- the work area ---------------------------------------------------------- */
+
+typedef struct weld_work {
+    const scene_mesh *mesh;
+    const char *name;
+    uint32_t *prim_base;     /* per primitive: first global glTF-vertex number */
+    uint32_t vertex_total;   /* glTF vertices over welded primitives */
+    uint32_t input_triangles;
+
+    uint32_t *gv_position;   /* global glTF vertex -> provisional position id */
+    uint32_t *gv_wedge;      /* global glTF vertex -> wedge id */
+    uint32_t *prov_key;      /* provisional position -> 3 float keys */
+    uint32_t prov_count;
+    uint32_t *prov_final;    /* provisional position -> final vertex id or NONE */
+
+    size_t edge_cap;         /* edge hash table, kept for count_dangling */
+    uint32_t *edge_first;    /* slot -> first edge seen (NONE: empty) */
+    uint32_t *edge_second;   /* slot -> second edge seen */
+    uint32_t *edge_uses;     /* slot -> number of triangle edges on it */
+    uint32_t *edge_slot;     /* edge -> slot */
+} weld_work;
+
+static void work_free(weld_work *k)
+{
+    free(k->prim_base);
+    free(k->gv_position);
+    free(k->gv_wedge);
+    free(k->prov_key);
+    free(k->prov_final);
+    free(k->edge_first);
+    free(k->edge_second);
+    free(k->edge_uses);
+    free(k->edge_slot);
+}
+
+static int out_of_memory(weld_work *k, lp_error *err)
+{
+    return lp_fail(err, LP_INVALID, "mesh \"%s\": out of memory while welding", k->name);
+}
+
+/* ---- steps ------------------------------------------------------------------ */
+
+static int count_input(weld_work *k, lp_error *err)
+{
+    const scene_mesh *m = k->mesh;
+    uint64_t vertices = 0, triangles = 0;
+    k->prim_base = alloc_array(m->primitive_count, sizeof *k->prim_base);
+    if (!k->prim_base) return out_of_memory(k, err);
+    for (uint32_t p = 0; p < m->primitive_count; ++p) {
+        const scene_primitive *pr = &m->primitives[p];
+        k->prim_base[p] = (uint32_t)vertices;
+        if (!is_welded(pr)) continue;
+        if (!pr->positions || !pr->triangles)
+            return lp_fail(err, LP_INVALID, "mesh \"%s\".primitives[%u]: triangles without positions", k->name, p);
+        vertices += pr->vertex_count;
+        triangles += pr->triangle_count;
+        if (vertices > WELD_MAX_VERTICES || triangles > WELD_MAX_TRIANGLES)
+            return lp_fail(err, LP_INVALID, "mesh \"%s\": too large to weld (more than %u triangles or %u vertices)",
+                           k->name, WELD_MAX_TRIANGLES, WELD_MAX_VERTICES);
+        for (size_t i = 0; i < 3 * (size_t)pr->triangle_count; ++i)
+            if (pr->triangles[i] >= pr->vertex_count)
+                return lp_fail(err, LP_INVALID, "mesh \"%s\".primitives[%u]: triangle %zu uses vertex %u of %u",
+                               k->name, p, i / 3, pr->triangles[i], pr->vertex_count);
+    }
+    k->vertex_total = (uint32_t)vertices;
+    k->input_triangles = (uint32_t)triangles;
+    return LP_OK;
+}
+
+/* Every glTF vertex used by any triangle (kept or not) gets the id of its
+ * position, numbered by first appearance; one hash lookup per glTF vertex. */
+static int weld_positions(weld_work *k, lp_error *err)
+{
+    const scene_mesh *m = k->mesh;
+    size_t bound = k->vertex_total < 3 * (size_t)k->input_triangles ? k->vertex_total : 3 * (size_t)k->input_triangles;
+    size_t cap = table_capacity(bound);
+    uint32_t *table = alloc_array(cap, sizeof *table);
+    k->gv_position = alloc_array(k->vertex_total, sizeof *k->gv_position);
+    k->prov_key = alloc_array(3 * bound, sizeof *k->prov_key);
+    if (!table || !k->gv_position || !k->prov_key) {
+        free(table);
+        return out_of_memory(k, err);
+    }
+    memset(table, 0xff, cap * sizeof *table);
+    memset(k->gv_position, 0xff, (k->vertex_total ? k->vertex_total : 1) * sizeof *k->gv_position);
+    k->prov_count = 0;
+    for (uint32_t p = 0; p < m->primitive_count; ++p) {
+        const scene_primitive *pr = &m->primitives[p];
+        if (!is_welded(pr)) continue;
+        for (size_t i = 0; i < 3 * (size_t)pr->triangle_count; ++i) {
+            uint32_t *slot_of_gv = &k->gv_position[k->prim_base[p] + pr->triangles[i]];
+            if (*slot_of_gv != NONE) continue;
+            const float *xyz = pr->positions + 3 * (size_t)pr->triangles[i];
+            uint32_t key[3] = {float_key(xyz[0]), float_key(xyz[1]), float_key(xyz[2])};
+            size_t s = hash_step(hash_step(hash_step(0x504f53u, key[0]), key[1]), key[2]) & (cap - 1);
+            for (;; s = (s + 1) & (cap - 1)) {
+                uint32_t id = table[s];
+                if (id == NONE) {
+                    id = k->prov_count++;
+                    assert(id < bound);
+                    memcpy(k->prov_key + 3 * (size_t)id, key, sizeof key);
+                    table[s] = id;
+                    *slot_of_gv = id;
+                    break;
+                }
+                if (memcmp(k->prov_key + 3 * (size_t)id, key, sizeof key) == 0) {
+                    *slot_of_gv = id;
+                    break;
+                }
+            }
+        }
+    }
+    free(table);
+    return LP_OK;
+}
+
+static int triangle_is_degenerate(const weld_work *k, uint32_t p, size_t t)
+{
+    const uint32_t *tri = k->mesh->primitives[p].triangles + 3 * t;
+    const uint32_t base = k->prim_base[p];
+    uint32_t a = k->gv_position[base + tri[0]];
+    uint32_t b = k->gv_position[base + tri[1]];
+    uint32_t c = k->gv_position[base + tri[2]];
+    return a == b || b == c || c == a;
+}
+
+/* A triangle with two corners on one position vertex has zero area: dropping
+ * it removes nothing a renderer draws, and nothing of the surface's area.
+ * Its point set is a segment (or a point); when that segment is an edge of a
+ * kept triangle (the usual case: a sliver left over from a strip or from
+ * welding) the union of the triangles is unchanged too. count_dangling
+ * reports the rare drops where it is not. Kept triangles then have three
+ * distinct position vertices, which the umbrella walk relies on.
+ * Numbers kept position vertices and wedges by first appearance. */
+static int number_kept(weld_work *k, weld_result *out, lp_error *err)
+{
+    const scene_mesh *m = k->mesh;
+    k->prov_final = alloc_array(k->prov_count, sizeof *k->prov_final);
+    k->gv_wedge = alloc_array(k->vertex_total, sizeof *k->gv_wedge);
+    if (!k->prov_final || !k->gv_wedge) return out_of_memory(k, err);
+    memset(k->prov_final, 0xff, (k->prov_count ? k->prov_count : 1) * sizeof *k->prov_final);
+    memset(k->gv_wedge, 0xff, (k->vertex_total ? k->vertex_total : 1) * sizeof *k->gv_wedge);
+    uint32_t vertices = 0, wedges = 0, kept = 0, dropped = 0;
+    for (uint32_t p = 0; p < m->primitive_count; ++p) {
+        const scene_primitive *pr = &m->primitives[p];
+        if (!is_welded(pr)) continue;
+        out->stats.primitives++;
+        for (size_t t = 0; t < pr->triangle_count; ++t) {
+            if (triangle_is_degenerate(k, p, t)) {
+                dropped++;
+                continue;
+            }
+            kept++;
+            for (int c = 0; c < 3; ++c) {
+                uint32_t gv = k->prim_base[p] + pr->triangles[3 * t + (size_t)c];
+                uint32_t *final = &k->prov_final[k->gv_position[gv]];
+                if (*final == NONE) *final = vertices++;
+                if (k->gv_wedge[gv] == NONE) k->gv_wedge[gv] = wedges++;
+            }
+        }
+    }
+    out->vertex_count = vertices;
+    out->wedge_count = wedges;
+    out->triangle_count = kept;
+    out->stats.input_triangles = k->input_triangles;
+    out->stats.triangles = kept;
+    out->stats.degenerate_triangles = dropped;
+    out->stats.vertices = vertices;
+    out->stats.wedges = wedges;
+    return LP_OK;
+}
+
+static int allocate_result(weld_work *k, weld_result *out, lp_error *err)
+{
+    const size_t v = out->vertex_count, w = out->wedge_count, c = 3 * (size_t)out->triangle_count;
+    out->positions = alloc_array(3 * v, sizeof *out->positions);
+    out->vertex_kind = alloc_array(v, sizeof *out->vertex_kind);
+    out->vertex_triangle_offsets = alloc_array(v + 1, sizeof *out->vertex_triangle_offsets);
+    out->vertex_triangles = alloc_array(c, sizeof *out->vertex_triangles);
+    out->wedge_primitive = alloc_array(w, sizeof *out->wedge_primitive);
+    out->wedge_index = alloc_array(w, sizeof *out->wedge_index);
+    out->wedge_vertex = alloc_array(w, sizeof *out->wedge_vertex);
+    out->wedge_class = alloc_array(w, sizeof *out->wedge_class);
+    out->triangle_wedges = alloc_array(c, sizeof *out->triangle_wedges);
+    out->triangle_vertices = alloc_array(c, sizeof *out->triangle_vertices);
+    out->triangle_primitive = alloc_array(out->triangle_count, sizeof *out->triangle_primitive);
+    out->edge_opposite = alloc_array(c, sizeof *out->edge_opposite);
+    out->edge_flags = alloc_array(c, sizeof *out->edge_flags);
+    if (!out->positions || !out->vertex_kind || !out->vertex_triangle_offsets || !out->vertex_triangles ||
+        !out->wedge_primitive || !out->wedge_index || !out->wedge_vertex || !out->wedge_class ||
+        !out->triangle_wedges || !out->triangle_vertices || !out->triangle_primitive || !out->edge_opposite ||
+        !out->edge_flags)
+        return out_of_memory(k, err);
+    return LP_OK;
+}
+
+/* Second walk over the kept triangles, in the same order as number_kept, so
+ * each wedge and vertex is first met exactly when its number comes up. */
+static void fill_arrays(weld_work *k, weld_result *out)
+{
+    const scene_mesh *m = k->mesh;
+    uint32_t t_out = 0, next_wedge = 0, next_vertex = 0;
+    for (uint32_t p = 0; p < m->primitive_count; ++p) {
+        const scene_primitive *pr = &m->primitives[p];
+        if (!is_welded(pr)) continue;
+        for (size_t t = 0; t < pr->triangle_count; ++t) {
+            if (triangle_is_degenerate(k, p, t)) continue;
+            for (int c = 0; c < 3; ++c) {
+                uint32_t index = pr->triangles[3 * t + (size_t)c];
+                uint32_t gv = k->prim_base[p] + index;
+                uint32_t prov = k->gv_position[gv];
+                uint32_t vertex = k->prov_final[prov];
+                uint32_t wedge = k->gv_wedge[gv];
+                if (vertex == next_vertex) {
+                    for (int a = 0; a < 3; ++a) {
+                        uint32_t bits = k->prov_key[3 * (size_t)prov + (size_t)a];
+                        memcpy(&out->positions[3 * (size_t)vertex + (size_t)a], &bits, sizeof bits);
+                    }
+                    next_vertex++;
+                }
+                if (wedge == next_wedge) {
+                    out->wedge_primitive[wedge] = p;
+                    out->wedge_index[wedge] = index;
+                    out->wedge_vertex[wedge] = vertex;
+                    next_wedge++;
+                }
+                out->triangle_wedges[3 * (size_t)t_out + (size_t)c] = wedge;
+                out->triangle_vertices[3 * (size_t)t_out + (size_t)c] = vertex;
+            }
+            out->triangle_primitive[t_out++] = p;
+        }
+    }
+    assert(t_out == out->triangle_count && next_wedge == out->wedge_count && next_vertex == out->vertex_count);
+}
+
+static void build_vertex_triangles(weld_result *out)
+{
+    uint32_t *off = out->vertex_triangle_offsets;
+    const size_t corners = 3 * (size_t)out->triangle_count;
+    memset(off, 0, ((size_t)out->vertex_count + 1) * sizeof *off);
+    for (size_t i = 0; i < corners; ++i) off[out->triangle_vertices[i] + 1]++;
+    for (uint32_t v = 0; v < out->vertex_count; ++v) off[v + 1] += off[v];
+    /* fill using off[v] as a cursor, then shift back */
+    for (size_t i = 0; i < corners; ++i) out->vertex_triangles[off[out->triangle_vertices[i]]++] = (uint32_t)(i / 3);
+    for (uint32_t v = out->vertex_count; v > 0; --v) off[v] = off[v - 1];
+    off[0] = 0;
+}
+
+/* ---- wedge classes ---------------------------------------------------------- */
+
+static int is_position_stream(const scene_primitive *pr, const scene_stream *st)
+{
+    return st->values == pr->positions;
+}
+
+static uint32_t wedge_hash(const weld_result *out, const scene_mesh *m, uint32_t w)
+{
+    const scene_primitive *pr = &m->primitives[out->wedge_primitive[w]];
+    uint32_t h = hash_step(hash_step(0x57454447u, out->wedge_primitive[w]), out->wedge_vertex[w]);
+    for (uint32_t s = 0; s < pr->stream_count; ++s) {
+        const scene_stream *st = &pr->streams[s];
+        if (is_position_stream(pr, st) || !st->values) continue;
+        const float *x = st->values + (size_t)out->wedge_index[w] * st->components;
+        for (uint32_t c = 0; c < st->components; ++c) h = hash_step(h, float_key(x[c]));
+    }
+    return h;
+}
+
+static int wedges_equal(const weld_result *out, const scene_mesh *m, uint32_t a, uint32_t b)
+{
+    if (out->wedge_primitive[a] != out->wedge_primitive[b] || out->wedge_vertex[a] != out->wedge_vertex[b]) return 0;
+    const scene_primitive *pr = &m->primitives[out->wedge_primitive[a]];
+    for (uint32_t s = 0; s < pr->stream_count; ++s) {
+        const scene_stream *st = &pr->streams[s];
+        if (is_position_stream(pr, st) || !st->values) continue;
+        const float *x = st->values + (size_t)out->wedge_index[a] * st->components;
+        const float *y = st->values + (size_t)out->wedge_index[b] * st->components;
+        for (uint32_t c = 0; c < st->components; ++c)
+            if (float_key(x[c]) != float_key(y[c])) return 0;
+    }
+    return 1;
+}
+
+static int classify_wedges(weld_work *k, weld_result *out, lp_error *err)
+{
+    size_t cap = table_capacity(out->wedge_count);
+    uint32_t *table = alloc_array(cap, sizeof *table);
+    if (!table) return out_of_memory(k, err);
+    memset(table, 0xff, cap * sizeof *table);
+    uint32_t classes = 0;
+    for (uint32_t w = 0; w < out->wedge_count; ++w) {
+        size_t s = wedge_hash(out, k->mesh, w) & (cap - 1);
+        for (;; s = (s + 1) & (cap - 1)) {
+            if (table[s] == NONE) {
+                table[s] = w;
+                out->wedge_class[w] = w;
+                classes++;
+                break;
+            }
+            if (wedges_equal(out, k->mesh, table[s], w)) {
+                out->wedge_class[w] = table[s];
+                break;
+            }
+        }
+    }
+    out->stats.wedge_classes = classes;
+    free(table);
+    return LP_OK;
+}
+
+/* ---- edges ------------------------------------------------------------------ */
+
+static uint32_t edge_next(uint32_t e)
+{
+    return e % 3 == 2 ? e - 2 : e + 1;
+}
+
+static uint32_t edge_prev(uint32_t e)
+{
+    return e % 3 == 0 ? e + 2 : e - 1;
+}
+
+static size_t edge_hash(uint32_t a, uint32_t b)
+{
+    uint32_t lo = a < b ? a : b, hi = a < b ? b : a;
+    return hash_step(hash_step(0x45444745u, lo), hi);
+}
+
+static int edge_matches(const weld_result *out, uint32_t e, uint32_t a, uint32_t b)
+{
+    uint32_t x = out->triangle_vertices[e], y = out->triangle_vertices[edge_next(e)];
+    return (x == a && y == b) || (x == b && y == a);
+}
+
+/* Slot of undirected edge {a, b}, or NONE. */
+static uint32_t edge_find(const weld_work *k, const weld_result *out, uint32_t a, uint32_t b)
+{
+    for (size_t s = edge_hash(a, b) & (k->edge_cap - 1);; s = (s + 1) & (k->edge_cap - 1)) {
+        if (k->edge_first[s] == NONE) return NONE;
+        if (edge_matches(out, k->edge_first[s], a, b)) return (uint32_t)s;
+    }
+}
+
+static int pair_edges(weld_work *k, weld_result *out, lp_error *err)
+{
+    const uint32_t edges = 3 * out->triangle_count;
+    k->edge_cap = table_capacity(edges);
+    k->edge_first = alloc_array(k->edge_cap, sizeof *k->edge_first);
+    k->edge_second = alloc_array(k->edge_cap, sizeof *k->edge_second);
+    k->edge_uses = alloc_array(k->edge_cap, sizeof *k->edge_uses);
+    k->edge_slot = alloc_array(edges, sizeof *k->edge_slot);
+    if (!k->edge_first || !k->edge_second || !k->edge_uses || !k->edge_slot) return out_of_memory(k, err);
+    memset(k->edge_first, 0xff, k->edge_cap * sizeof *k->edge_first);
+    for (uint32_t e = 0; e < edges; ++e) {
+        uint32_t a = out->triangle_vertices[e], b = out->triangle_vertices[edge_next(e)];
+        for (size_t s = edge_hash(a, b) & (k->edge_cap - 1);; s = (s + 1) & (k->edge_cap - 1)) {
+            if (k->edge_first[s] == NONE) {
+                k->edge_first[s] = e;
+                k->edge_second[s] = NONE;
+                k->edge_uses[s] = 1;
+                k->edge_slot[e] = (uint32_t)s;
+                break;
+            }
+            if (edge_matches(out, k->edge_first[s], a, b)) {
+                if (k->edge_uses[s] == 1) k->edge_second[s] = e;
+                k->edge_uses[s]++;
+                k->edge_slot[e] = (uint32_t)s;
+                break;
+            }
+        }
+    }
+    for (uint32_t e = 0; e < edges; ++e) {
+        uint32_t s = k->edge_slot[e];
+        out->edge_flags[e] = 0;
+        if (k->edge_uses[s] == 1) {
+            out->edge_opposite[e] = WELD_EDGE_IS_BORDER;
+            out->edge_flags[e] = WELD_FLAG_BORDER;
+            continue;
+        }
+        uint32_t other = k->edge_first[s] == e ? k->edge_second[s] : k->edge_first[s];
+        /* the other side must run b -> a */
+        if (k->edge_uses[s] == 2 && out->triangle_vertices[other] == out->triangle_vertices[edge_next(e)]) {
+            out->edge_opposite[e] = other;
+        } else {
+            out->edge_opposite[e] = WELD_EDGE_IS_NONMANIFOLD;
+            out->edge_flags[e] = WELD_FLAG_NONMANIFOLD;
+        }
+    }
+    for (size_t s = 0; s < k->edge_cap; ++s) {
+        if (k->edge_first[s] == NONE) continue;
+        out->stats.edges++;
+        uint32_t e = k->edge_first[s];
+        if (out->edge_opposite[e] == WELD_EDGE_IS_BORDER) out->stats.border_edges++;
+        else if (out->edge_opposite[e] == WELD_EDGE_IS_NONMANIFOLD) out->stats.nonmanifold_edges++;
+    }
+    return LP_OK;
+}
+
+/* A manifold interior edge e (a -> b) with opposite o (b -> a) is a seam when
+ * the wedge classes differ at a or at b. Classes include the primitive. */
+static void mark_seams(weld_result *out)
+{
+    const uint32_t edges = 3 * out->triangle_count;
+    const uint32_t *cls = out->wedge_class, *tw = out->triangle_wedges;
+    for (uint32_t e = 0; e < edges; ++e) {
+        uint32_t o = out->edge_opposite[e];
+        if (o >= WELD_EDGE_IS_NONMANIFOLD) continue;
+        if (cls[tw[e]] != cls[tw[edge_next(o)]] || cls[tw[edge_next(e)]] != cls[tw[o]]) {
+            out->edge_flags[e] |= WELD_FLAG_SEAM;
+            if (e < o) out->stats.seam_edges++;
+        }
+    }
+}
+
+/* ---- vertex kinds ------------------------------------------------------------ */
+
+/* Corner (0..2) of vertex v in triangle t; t is incident to v. */
+static uint32_t corner_of(const weld_result *out, uint32_t t, uint32_t v)
+{
+    const uint32_t *tv = out->triangle_vertices + 3 * (size_t)t;
+    return tv[0] == v ? 0u : tv[1] == v ? 1u : 2u;
+}
+
+/* Walks the fan of v that contains its first incident triangle, across
+ * manifold interior edges only, counting triangles, border edges met, seam
+ * edges crossed, and among those the ones where v's OWN wedge class changes
+ * (the others change only at the far end, e.g. the spokes of a UV sphere's
+ * pole seen from the ring around it). The edge leaving v in triangle t at
+ * corner c is 3t + c; its opposite enters v, so v starts the next edge of the
+ * opposite. Then the rule table of weld.h:
+ *   non-manifold edge at v, or triangles outside the fan   LOCKED
+ *   open fan,   v's class never changes                    BORDER
+ *   open fan,   otherwise (a seam reaches the border)      LOCKED
+ *   closed fan, v's class never changes                    MANIFOLD
+ *   closed fan, 2 seam edges, v's class changes at both    SEAM
+ *   closed fan, otherwise                                  LOCKED
+ * A MANIFOLD or BORDER vertex may thus have seam edges whose change is at
+ * the other end; weld_collapse_allowed keeps it from collapsing along them. */
+static weld_kind classify_vertex(const weld_result *out, uint32_t v, int *several_fans)
+{
+    const uint32_t begin = out->vertex_triangle_offsets[v], end = out->vertex_triangle_offsets[v + 1];
+    const uint32_t degree = end - begin;
+    const uint32_t *cls = out->wedge_class, *tw = out->triangle_wedges;
+    *several_fans = 0;
+    for (uint32_t i = begin; i < end; ++i) {
+        uint32_t t = out->vertex_triangles[i];
+        uint32_t leave = 3 * t + corner_of(out, t, v);
+        if (out->edge_opposite[leave] == WELD_EDGE_IS_NONMANIFOLD ||
+            out->edge_opposite[edge_prev(leave)] == WELD_EDGE_IS_NONMANIFOLD)
+            return WELD_LOCKED;
+    }
+    const uint32_t t0 = out->vertex_triangles[begin];
+    uint32_t fan = 1, seams = 0, changes = 0, borders = 0, closed = 0;
+    /* forward: across the edge leaving v; v's corner is `leave` itself */
+    uint32_t leave = 3 * t0 + corner_of(out, t0, v);
+    while (fan <= degree) {
+        uint32_t o = out->edge_opposite[leave];
+        if (o == WELD_EDGE_IS_BORDER) {
+            borders++;
+            break;
+        }
+        if (out->edge_flags[leave] & WELD_FLAG_SEAM) {
+            seams++;
+            changes += cls[tw[leave]] != cls[tw[edge_next(o)]];
+        }
+        if (o / 3 == t0) {
+            closed = 1;
+            break;
+        }
+        fan++;
+        leave = edge_next(o);
+    }
+    if (!closed) {
+        /* backward: across the edge entering v; v's corner is the next one */
+        uint32_t enter = edge_prev(3 * t0 + corner_of(out, t0, v));
+        while (fan <= degree) {
+            uint32_t o = out->edge_opposite[enter];
+            if (o == WELD_EDGE_IS_BORDER) {
+                borders++;
+                break;
+            }
+            if (out->edge_flags[enter] & WELD_FLAG_SEAM) {
+                seams++;
+                changes += cls[tw[edge_next(enter)]] != cls[tw[o]];
+            }
+            fan++;
+            enter = edge_prev(o);
+        }
+    }
+    if (fan != degree) {
+        *several_fans = 1;
+        return WELD_LOCKED;
+    }
+    if (!closed) {
+        assert(borders == 2);
+        return changes == 0 ? WELD_BORDER : WELD_LOCKED;
+    }
+    if (changes == 0) return WELD_MANIFOLD;
+    return seams == 2 && changes == 2 ? WELD_SEAM : WELD_LOCKED;
+}
+
+static void classify_vertices(weld_result *out)
+{
+    for (uint32_t v = 0; v < out->vertex_count; ++v) {
+        int several_fans;
+        weld_kind kind = classify_vertex(out, v, &several_fans);
+        out->vertex_kind[v] = (uint8_t)kind;
+        out->stats.vertices_by_kind[kind]++;
+        if (several_fans) out->stats.nonmanifold_vertices++;
+    }
+    for (uint32_t w = 0; w < out->wedge_count; ++w) out->stats.wedges_by_kind[out->vertex_kind[out->wedge_vertex[w]]]++;
+}
+
+/* A dropped triangle is "dangling" when its segment (two distinct positions)
+ * is not an edge of a kept triangle, or its point (one position) is not a
+ * kept vertex. Conservative: such a segment may still lie inside the surface;
+ * it is only counted, for the caller to report. */
+static void count_dangling(weld_work *k, weld_result *out)
+{
+    const scene_mesh *m = k->mesh;
+    for (uint32_t p = 0; p < m->primitive_count; ++p) {
+        const scene_primitive *pr = &m->primitives[p];
+        if (!is_welded(pr)) continue;
+        for (size_t t = 0; t < pr->triangle_count; ++t) {
+            if (!triangle_is_degenerate(k, p, t)) continue;
+            uint32_t q[3];
+            for (int c = 0; c < 3; ++c)
+                q[c] = k->prov_final[k->gv_position[k->prim_base[p] + pr->triangles[3 * t + (size_t)c]]];
+            uint32_t a = q[0], b = q[0] == q[1] ? q[2] : q[1];
+            int dangling;
+            if (a == NONE || b == NONE) dangling = 1;
+            else if (a == b) dangling = 0;
+            else dangling = out->triangle_count == 0 || edge_find(k, out, a, b) == NONE;
+            out->stats.degenerate_dangling += (uint32_t)dangling;
+        }
+    }
+}
+
+/* ---- public ----------------------------------------------------------------- */
+
+int weld_build(const scene_mesh *mesh, weld_result *out, lp_error *err)
+{
+    memset(out, 0, sizeof *out);
+    weld_work k;
+    memset(&k, 0, sizeof k);
+    k.mesh = mesh;
+    k.name = mesh->name ? mesh->name : "";
+    int rc = count_input(&k, err);
+    if (!rc) rc = weld_positions(&k, err);
+    if (!rc) rc = number_kept(&k, out, err);
+    if (!rc) rc = allocate_result(&k, out, err);
+    if (!rc) {
+        fill_arrays(&k, out);
+        build_vertex_triangles(out);
+        rc = classify_wedges(&k, out, err);
+    }
+    if (!rc) rc = pair_edges(&k, out, err);
+    if (!rc) {
+        mark_seams(out);
+        classify_vertices(out);
+        count_dangling(&k, out);
+    }
+    work_free(&k);
+    if (rc) weld_free(out);
+    return rc;
+}
+
+void weld_free(weld_result *w)
+{
+    free(w->positions);
+    free(w->vertex_kind);
+    free(w->vertex_triangle_offsets);
+    free(w->vertex_triangles);
+    free(w->wedge_primitive);
+    free(w->wedge_index);
+    free(w->wedge_vertex);
+    free(w->wedge_class);
+    free(w->triangle_wedges);
+    free(w->triangle_vertices);
+    free(w->triangle_primitive);
+    free(w->edge_opposite);
+    free(w->edge_flags);
+    memset(w, 0, sizeof *w);
+}
+
+/* Rows: vertex kind. Columns: the edge it would collapse along, as
+ * 0 manifold interior, 1 seam, 2 border, 3 non-manifold. */
+static const uint8_t collapse_rule[WELD_KIND_COUNT][4] = {
+    /* MANIFOLD */ {1, 0, 0, 0}, /* onto anything, except across a far-end seam */
+    /* BORDER   */ {0, 0, 1, 0}, /* only along its border */
+    /* SEAM     */ {0, 1, 0, 0}, /* only along its seam, both wedges together */
+    /* LOCKED   */ {0, 0, 0, 0}, /* never moves */
+};
+
+int weld_collapse_allowed(weld_kind kind, uint8_t flags)
+{
+    if ((unsigned)kind >= WELD_KIND_COUNT) return 0;
+    int column = (flags & WELD_FLAG_NONMANIFOLD) ? 3 : (flags & WELD_FLAG_BORDER) ? 2 : (flags & WELD_FLAG_SEAM) ? 1 : 0;
+    return collapse_rule[kind][column];
+}
+
+const char *weld_kind_name(weld_kind kind)
+{
+    static const char *const names[WELD_KIND_COUNT] = {"manifold", "border", "seam", "locked"};
+    return (unsigned)kind < WELD_KIND_COUNT ? names[kind] : "?";
+}

@@ -1,0 +1,182 @@
+/* weld.h - welding: one topology per mesh, the first step of the certified
+ * simplifier (DESIGN.md §3 "Welding", §5).
+ *
+ * A glTF mesh is a list of primitives, each with its own vertex arrays; the
+ * same point of the surface is usually stored several times (once per
+ * material, per UV island, per normal crease). The simplifier needs one
+ * connected surface with the attribute discontinuities marked, so this module
+ * welds every triangle primitive of one scene_mesh BY EXACT POSITION into:
+ *
+ * - position vertices: the distinct positions (float xyz, bitwise equal after
+ *   -0.0 is read as +0.0; the stored value has +0.0) used by a kept triangle,
+ *   numbered by first appearance (primitives in order, then triangles in
+ *   order, then corners 0, 1, 2);
+ * - wedges: one per (primitive, glTF vertex index) used by a kept triangle,
+ *   numbered by first appearance the same way. A wedge carries the attributes
+ *   (it IS a glTF vertex); output index buffers point at wedges. Wedges whose
+ *   attribute VALUES are equal (every stream, compared bitwise with -0.0 ==
+ *   +0.0) in the same primitive at the same position form a wedge class; the
+ *   class id is the lowest wedge number of the class. Morph target deltas
+ *   are not in the scene model's streams and are not compared;
+ * - triangles: 3 wedges + 3 position vertices each + the primitive they came
+ *   from (whose material they have). Triangles that are degenerate BY INDEX
+ *   after welding (two corners on one position vertex) are dropped and
+ *   counted; zero-area triangles with three distinct positions are kept;
+ * - adjacency: for each position vertex the triangles around it (CSR), and
+ *   for each triangle edge the opposite edge, or a border / non-manifold
+ *   marker, plus a seam flag;
+ * - a kind for each position vertex (below) and statistics.
+ *
+ * Edges. Edge e of triangle t is numbered 3t + e; it runs from corner e to
+ * corner (e + 1) % 3 (so it starts at corner 3t + e of the corner arrays).
+ * An undirected edge used by one triangle is a border edge; used by exactly
+ * two triangles in opposite directions it is a manifold interior edge and
+ * each side's opposite is the other; used by more than two triangles, or by
+ * two in the same direction (inconsistent orientation), it is non-manifold.
+ * A manifold interior edge is a SEAM edge when the two triangles across it
+ * disagree on the attribute values at either end (their wedges at that end
+ * are in different classes); triangles of different primitives always
+ * disagree, so a change of material is a seam. Mirrored UVs (same position
+ * and normal, different UV) are therefore seams too.
+ *
+ * Vertex kinds. The umbrella of a vertex is its incident triangles; a fan is
+ * a maximal sequence of them joined by manifold interior edges around it.
+ * Across a seam edge at v the attribute change may be at v itself (v's own
+ * wedge class differs on the two sides) or only at the far end (e.g. the
+ * ring around a UV sphere's pole: every spoke is a seam because the pole has
+ * one wedge per triangle, but the ring vertex has one value).
+ *
+ *   kind      when                                                  may move (half-edge collapse
+ *                                                                   onto a neighbour)
+ *   MANIFOLD  one closed fan, one wedge class (identical attribute  onto any neighbour across a
+ *             values, one primitive) all around                     non-seam edge
+ *   BORDER    one open fan (it lies on exactly one boundary loop),  only along one of its two
+ *             one wedge class                                       border edges
+ *   SEAM      one closed fan, exactly two seam edges, its class     only along one of its two seam
+ *             changes across both (two wedge classes): the values   edges, moving the wedges on
+ *             or the material change along one line through it      both sides together
+ *   LOCKED    everything else: a non-manifold edge at it, several   never
+ *             fans (bow-tie, pinch), a border vertex on a seam,
+ *             three or more seam edges with its class changing
+ *             (seams crossing, three materials meeting)
+ *
+ * Collapse rules in words: manifold onto anything, border only along its
+ * border, seam only along its seam (both wedges together), locked never
+ * moves. weld_collapse_allowed() is this table. One refinement of "onto
+ * anything": a MANIFOLD (or BORDER) vertex with a seam edge whose change is
+ * at the far end (the pole ring above) must not collapse along THAT edge:
+ * its remaining triangles would each need one of the far end's two wedges,
+ * and no choice keeps the discontinuity where it was; every other edge is
+ * fine. LOCKED is the kind for anything unclear: it only costs reduction,
+ * never correctness. A geometric corner of a border or seam line (the line
+ * bends) is NOT locked here; the certificate (DESIGN.md §4: border chords,
+ * per-material certification) decides whether it may be cut.
+ *
+ * Memory and time: every output array is one allocation (sized after a
+ * counting pass); scratch is a few arrays and three open-addressing hash
+ * tables (positions, wedge classes, edges), each sized once for a load of at
+ * most 1/2. No per-element allocation. O(n) expected time in the number of
+ * corners plus attribute components. The result depends on nothing but the
+ * input (fixed hash functions, fixed iteration order), not on addresses,
+ * threads or earlier calls. No global state: threads may weld different
+ * meshes at once (the scene is only read). */
+#ifndef LODPIPE_WELD_H
+#define LODPIPE_WELD_H
+
+#include <stdint.h>
+
+#include "scene.h"
+#include "status.h"
+
+typedef enum weld_kind {
+    WELD_MANIFOLD = 0,
+    WELD_BORDER = 1,
+    WELD_SEAM = 2,
+    WELD_LOCKED = 3,
+    WELD_KIND_COUNT = 4
+} weld_kind;
+
+/* edge_opposite markers (every real edge number is below both). */
+#define WELD_EDGE_IS_BORDER UINT32_MAX
+#define WELD_EDGE_IS_NONMANIFOLD (UINT32_MAX - 1u)
+
+/* edge_flags bits; a manifold interior non-seam edge has flags 0. */
+#define WELD_FLAG_SEAM 1u
+#define WELD_FLAG_BORDER 2u
+#define WELD_FLAG_NONMANIFOLD 4u
+
+/* Largest number of input triangles (over the welded primitives) and of
+ * glTF vertices (summed over them) weld_build accepts. */
+#define WELD_MAX_TRIANGLES 0x50000000u
+#define WELD_MAX_VERTICES 0xF0000000u
+
+typedef struct weld_stats {
+    uint32_t primitives;           /* triangle primitives welded */
+    uint32_t input_triangles;      /* triangles of those primitives */
+    uint32_t triangles;            /* kept = input - degenerate */
+    uint32_t degenerate_triangles; /* dropped: two corners on one position vertex */
+    uint32_t degenerate_dangling;  /* of those, ones whose segment/point is not
+                                      an edge/vertex of a kept triangle (see weld.c) */
+    uint32_t vertices;             /* position vertices */
+    uint32_t wedges;
+    uint32_t wedge_classes;        /* distinct (position, primitive, attribute values) */
+    uint32_t vertices_by_kind[WELD_KIND_COUNT];
+    uint32_t wedges_by_kind[WELD_KIND_COUNT]; /* by the kind of their position vertex */
+    uint32_t edges;                /* undirected */
+    uint32_t border_edges;
+    uint32_t nonmanifold_edges;
+    uint32_t seam_edges;
+    uint32_t nonmanifold_vertices; /* several fans meet there (bow-tie, pinch) */
+} weld_stats;
+
+typedef struct weld_result {
+    /* position vertices */
+    uint32_t vertex_count;
+    float *positions;                  /* 3 per vertex */
+    uint8_t *vertex_kind;              /* weld_kind */
+    uint32_t *vertex_triangle_offsets; /* vertex_count + 1 */
+    uint32_t *vertex_triangles;        /* 3 * triangle_count; ascending per vertex */
+
+    /* wedges (= the glTF vertices used) */
+    uint32_t wedge_count;
+    uint32_t *wedge_primitive; /* index into scene_mesh.primitives */
+    uint32_t *wedge_index;     /* vertex index in that primitive */
+    uint32_t *wedge_vertex;    /* position vertex */
+    uint32_t *wedge_class;     /* lowest wedge with the same position, primitive and values */
+
+    /* triangles (corner 3t + c) and their edges (edge 3t + e, corner e -> e + 1) */
+    uint32_t triangle_count;
+    uint32_t *triangle_wedges;    /* 3 per triangle */
+    uint32_t *triangle_vertices;  /* 3 per triangle, = wedge_vertex[triangle_wedges[..]] */
+    uint32_t *triangle_primitive; /* 1 per triangle */
+    uint32_t *edge_opposite;      /* 3 per triangle: opposite edge or a WELD_EDGE_IS_ marker */
+    uint8_t *edge_flags;          /* 3 per triangle: WELD_FLAG_ bits */
+
+    weld_stats stats;
+} weld_result;
+
+/* Welds every primitive of `mesh` that is not skipped and has triangles (its
+ * mode is 4..6; scene_load expanded strips and fans) into `out`, as described
+ * above. `out` borrows nothing from `mesh`: attribute values stay in the
+ * scene and are reached through wedge_primitive / wedge_index.
+ * Returns LP_OK, or LP_INVALID with a message naming the mesh when a triangle
+ * index is out of range, a primitive lacks positions, the mesh is larger than
+ * WELD_MAX_*, or memory runs out; `out` is then empty (safe to weld_free). */
+int weld_build(const scene_mesh *mesh, weld_result *out, lp_error *err);
+
+/* Frees every array of `w` and zeroes it. Safe on a zeroed or freed result. */
+void weld_free(weld_result *w);
+
+/* The collapse rule table: may a vertex of kind `kind` be collapsed (half-
+ * edge collapse, the vertex disappears into the other end) along an edge
+ * whose edge_flags are `flags`? MANIFOLD: along a manifold non-seam edge
+ * (flags 0); BORDER: along a border edge; SEAM: along a seam edge (one of
+ * its two); LOCKED: never. Non-manifold edges: never. This says what the
+ * kinds allow; the simplifier still runs the link condition (DESIGN.md §5)
+ * and the certificate. */
+int weld_collapse_allowed(weld_kind kind, uint8_t flags);
+
+/* "manifold", "border", "seam", "locked" (or "?"). */
+const char *weld_kind_name(weld_kind kind);
+
+#endif
