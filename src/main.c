@@ -11,8 +11,10 @@
 
 #include "output.h"
 #include "scene.h"
+#include "simplify.h"
 #include "status.h"
 #include "version.h"
+#include "weld.h"
 
 static const char *const kModeNames[7] = {"POINTS", "LINES", "LINE_LOOP", "LINE_STRIP",
                                           "TRIANGLES", "TRIANGLE_STRIP", "TRIANGLE_FAN"};
@@ -24,7 +26,12 @@ typedef struct cli {
     int force;
     int quiet;
     int allow_external_uris;
+    double levels[SIMPLIFY_MAX_LEVELS]; /* fractions of the diagonal */
+    uint32_t level_count;
+    uint32_t threads;
 } cli;
+
+static const double kDefaultLevels[] = {0.01, 0.03, 0.07, 0.15};
 
 static void usage(FILE *f)
 {
@@ -35,11 +42,18 @@ static void usage(FILE *f)
           "                      nodes, bounding-box diagonal; LOD chains already present\n"
           "  convert IN OUT      load IN and write it to OUT unchanged (.glb or .gltf by\n"
           "                      OUT's extension); compressed geometry comes out decoded\n"
+          "  simplify IN OUTDIR  the certified simplifier alone: for every mesh of the\n"
+          "                      default scene, OUTDIR/mesh<K>_level<L>.obj (level 0 = the\n"
+          "                      welded original, mesh space) and OUTDIR/simplify.json\n"
           "\n"
           "options:\n"
           "  --force                overwrite the input file if OUT names it\n"
           "  --allow-external-uris  accept uris that leave the input's folder\n"
           "  --quiet                no warnings on stderr\n"
+          "  --levels LIST          eps per level in percent of the mesh's bounding-box\n"
+          "                         diagonal, increasing (default 1,3,7,15)\n"
+          "  --threads N            worker threads (default: one per core); the result\n"
+          "                         does not depend on it\n"
           "  --help                 this text\n"
           "  --version              the version\n"
           "\n"
@@ -166,11 +180,199 @@ static int cmd_convert(const cli *c)
     return rc;
 }
 
+/* Writes `size` bytes to path through the all-or-nothing writer. */
+static int write_bytes(const char *path, char *bytes, size_t size)
+{
+    gltf_out_file f = {(char *)path, (uint8_t *)bytes, size};
+    const char *slash = strrchr(path, '/');
+    f.name = (char *)(slash ? slash + 1 : path);
+    lp_error err = {0, ""};
+    int rc = output_write_all(path, &f, 1, &err);
+    if (rc) report(path, &err);
+    return rc;
+}
+
+/* One level as OBJ: the mesh's welded vertices (shared by all levels) and the
+ * level's faces. %.9g prints every float exactly. */
+static int write_obj(const char *path, const weld_result *w, const uint32_t *face_vertices, uint32_t face_count,
+                     const uint32_t *face_wedges)
+{
+    char *buf = NULL;
+    size_t size = 0;
+    FILE *f = open_memstream(&buf, &size);
+    if (!f) return LP_IO;
+    for (uint32_t v = 0; v < w->vertex_count; ++v)
+        fprintf(f, "v %.9g %.9g %.9g\n", w->positions[3 * (size_t)v], w->positions[3 * (size_t)v + 1],
+                w->positions[3 * (size_t)v + 2]);
+    for (uint32_t t = 0; t < face_count; ++t) {
+        uint32_t a, b, c;
+        if (face_vertices) {
+            a = face_vertices[3 * (size_t)t];
+            b = face_vertices[3 * (size_t)t + 1];
+            c = face_vertices[3 * (size_t)t + 2];
+        } else {
+            a = w->wedge_vertex[face_wedges[3 * (size_t)t]];
+            b = w->wedge_vertex[face_wedges[3 * (size_t)t + 1]];
+            c = w->wedge_vertex[face_wedges[3 * (size_t)t + 2]];
+        }
+        fprintf(f, "f %u %u %u\n", a + 1, b + 1, c + 1);
+    }
+    fclose(f);
+    int rc = write_bytes(path, buf, size);
+    free(buf);
+    return rc;
+}
+
+static void json_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; *s; ++s) {
+        unsigned char ch = (unsigned char)*s;
+        if (ch == '"' || ch == '\\') fprintf(f, "\\%c", ch);
+        else if (ch < 0x20) fprintf(f, "\\u%04x", ch);
+        else fputc(ch, f);
+    }
+    fputc('"', f);
+}
+
+static void json_stats(FILE *f, const simplify_stats *st)
+{
+    static const char *const names[SIMPLIFY_REJECT_COUNT] = {"kind", "link", "flip", "cover", "face", "conflict"};
+    fprintf(f, "\"candidates\":%llu,\"attempts\":%llu,\"commits\":%llu,\"passes\":%u,\"batches\":%u,\"rejected\":{",
+            (unsigned long long)st->candidates, (unsigned long long)st->attempts, (unsigned long long)st->commits,
+            st->passes, st->batches);
+    for (int r = 0; r < SIMPLIFY_REJECT_COUNT; ++r)
+        fprintf(f, "%s\"%s\":%llu", r ? "," : "", names[r], (unsigned long long)st->rejected[r]);
+    fprintf(f, "},\"seconds_select\":%.6f,\"seconds_certify\":%.6f,\"seconds_commit\":%.6f", st->seconds_select,
+            st->seconds_certify, st->seconds_commit);
+}
+
+static int cmd_simplify(const cli *c)
+{
+    const char *in = c->operands[0], *dir = c->operands[1];
+    scene s;
+    int rc = load(c, in, &s);
+    if (rc) return rc;
+    simplify_options opt = {c->levels, c->level_count, c->threads, 0.25, 0};
+    const char *verify = getenv("LODPIPE_VERIFY");
+    opt.verify = verify && strcmp(verify, "0") != 0;
+    char *json = NULL;
+    size_t json_size = 0;
+    FILE *j = open_memstream(&json, &json_size);
+    if (!j) {
+        scene_free(&s);
+        return LP_IO;
+    }
+    fprintf(j, "{\"file\":");
+    json_string(j, in);
+    fprintf(j, ",\"meshes\":[");
+    int first = 1;
+    char path[4096];
+    for (uint32_t m = 0; m < s.mesh_count && !rc; ++m) {
+        const scene_mesh *mesh = &s.meshes[m];
+        if (!mesh->instance_count || !mesh->triangle_count) continue;
+        weld_result w;
+        lp_error err = {0, ""};
+        if ((rc = weld_build(mesh, &w, &err)) != 0) {
+            report(in, &err);
+            break;
+        }
+        int64_t *materials = malloc(((size_t)mesh->primitive_count + 1) * sizeof *materials);
+        simplify_result r;
+        memset(&r, 0, sizeof r);
+        if (!materials) rc = lp_fail(&err, LP_INVALID, "out of memory");
+        for (uint32_t p = 0; materials && p < mesh->primitive_count; ++p) materials[p] = mesh->primitives[p].material;
+        if (!rc) rc = simplify_mesh(&w, materials, &opt, &r, &err);
+        if (rc) {
+            if (err.msg[0]) report(in, &err);
+        } else {
+            snprintf(path, sizeof path, "%s/mesh%u_level0.obj", dir, m);
+            rc = write_obj(path, &w, w.triangle_vertices, w.triangle_count, NULL);
+            for (uint32_t k = 0; k < r.level_count && !rc; ++k) {
+                snprintf(path, sizeof path, "%s/mesh%u_level%u.obj", dir, m, k + 1);
+                rc = write_obj(path, &w, NULL, r.levels[k].triangle_count, r.levels[k].wedges);
+            }
+            fprintf(j, "%s{\"mesh\":%u,\"name\":", first ? "" : ",", m);
+            json_string(j, mesh->name);
+            fprintf(j, ",\"diagonal\":%.17g,\"triangles\":%u,\"weld\":{\"vertices\":%u,\"locked\":%u,\"degenerate_dropped\":%u},\"levels\":[",
+                    r.diagonal, w.triangle_count, w.vertex_count, w.stats.vertices_by_kind[WELD_LOCKED],
+                    w.stats.degenerate_triangles);
+            for (uint32_t k = 0; k < r.level_count; ++k) {
+                const simplify_level *l = &r.levels[k];
+                fprintf(j, "%s{\"level\":%u,\"fraction\":%.17g,\"eps\":%.17g,\"bound\":%.17g,\"triangles\":%u,\"seconds\":%.6f,",
+                        k ? "," : "", k + 1, c->levels[k], l->eps, l->bound, l->triangle_count, l->stats.seconds);
+                json_stats(j, &l->stats);
+                fprintf(j, "}");
+            }
+            fprintf(j, "]}");
+            first = 0;
+            if (!c->quiet)
+                for (uint32_t k = 0; k < r.level_count; ++k)
+                    fprintf(stderr, "lodpipe: %s: mesh %u level %u: %u -> %u triangles, bound %.4g%% of diagonal (%.2f s)\n",
+                            in, m, k + 1, w.triangle_count, r.levels[k].triangle_count,
+                            r.diagonal > 0 ? 100.0 * r.levels[k].bound / r.diagonal : 0.0, r.levels[k].stats.seconds);
+        }
+        simplify_result_free(&r);
+        free(materials);
+        weld_free(&w);
+    }
+    fprintf(j, "]}\n");
+    fclose(j);
+    if (!rc) {
+        snprintf(path, sizeof path, "%s/simplify.json", dir);
+        rc = write_bytes(path, json, json_size);
+    }
+    free(json);
+    scene_free(&s);
+    return rc;
+}
+
+/* "1,3,7,15" (percent of the diagonal) -> increasing fractions. */
+static int parse_levels(const char *text, cli *c)
+{
+    c->level_count = 0;
+    const char *p = text;
+    while (*p) {
+        char *end;
+        double v = strtod(p, &end);
+        if (end == p || !(v > 0.0) || !(v <= 100.0) || c->level_count == SIMPLIFY_MAX_LEVELS ||
+            (c->level_count && v / 100.0 <= c->levels[c->level_count - 1]))
+            return -1;
+        c->levels[c->level_count++] = v / 100.0;
+        p = end;
+        if (*p == ',') p++;
+        else if (*p) return -1;
+    }
+    return c->level_count ? 0 : -1;
+}
+
 static int parse(int argc, char **argv, cli *c)
 {
     memset(c, 0, sizeof *c);
+    c->level_count = sizeof kDefaultLevels / sizeof kDefaultLevels[0];
+    memcpy(c->levels, kDefaultLevels, sizeof kDefaultLevels);
     for (int i = 1; i < argc; ++i) {
         const char *a = argv[i];
+        if ((strcmp(a, "--levels") == 0 || strcmp(a, "--threads") == 0) && i + 1 >= argc) {
+            char msg[300];
+            snprintf(msg, sizeof msg, "%s needs a value", a);
+            return usage_error(msg);
+        }
+        if (strcmp(a, "--levels") == 0) {
+            if (parse_levels(argv[++i], c)) {
+                char msg[300];
+                snprintf(msg, sizeof msg, "--levels %.200s: expected increasing percentages in (0, 100], e.g. 1,3,7,15", argv[i]);
+                return usage_error(msg);
+            }
+            continue;
+        }
+        if (strcmp(a, "--threads") == 0) {
+            char *end;
+            long n = strtol(argv[++i], &end, 10);
+            if (*end || n < 1 || n > 64) return usage_error("--threads takes a whole number from 1 to 64");
+            c->threads = (uint32_t)n;
+            continue;
+        }
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             usage(stdout);
             exit(LP_OK);
@@ -213,6 +415,10 @@ int main(int argc, char **argv)
     if (strcmp(c.command, "convert") == 0) {
         if (c.operand_count != 2) return usage_error("convert needs IN and OUT");
         return cmd_convert(&c);
+    }
+    if (strcmp(c.command, "simplify") == 0) {
+        if (c.operand_count != 2) return usage_error("simplify needs IN and OUTDIR");
+        return cmd_simplify(&c);
     }
     char msg[300];
     snprintf(msg, sizeof msg, "unknown command %.200s", c.command);

@@ -1,0 +1,255 @@
+/* certify.c - the two-sided certificate; see certify.h for what it proves.
+ *
+ * Follows DESIGN.md §4 (after Cohen et al.'s simplification envelopes and Cox
+ * & Chibelushi's local error bound): convexity of the point-triangle distance
+ * (a piece is within eps of one triangle when its corners are) and the
+ * 1-Lipschitz bound at the minimal enclosing ball's centre, with 1-to-4
+ * subdivision as the fallback. */
+#include "certify.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "geom.h"
+
+static vec3d vertex_of(const cert_original *o, uint32_t v)
+{
+    return geom_vec3d_from_floats(o->positions + 3 * (size_t)v);
+}
+
+static void triangle_of(const cert_original *o, uint32_t t, vec3d out[3])
+{
+    for (int k = 0; k < 3; ++k) out[k] = vertex_of(o, o->triangles[3 * (size_t)t + k]);
+}
+
+int cert_original_init(cert_original *o, const float *positions, uint32_t vertex_count,
+                       const uint32_t *triangles, uint32_t triangle_count, const int32_t *material,
+                       const uint32_t *vertex_offsets, const uint32_t *vertex_triangles)
+{
+    memset(o, 0, sizeof *o);
+    o->triangle_count = triangle_count;
+    o->positions = positions;
+    o->triangles = triangles;
+    o->material = material;
+    o->vertex_offsets = vertex_offsets;
+    o->vertex_triangles = vertex_triangles;
+    o->normals = calloc((size_t)triangle_count * 3 + 1, sizeof *o->normals);
+    o->degenerate = calloc((size_t)triangle_count + 1, 1);
+    if (!o->normals || !o->degenerate) {
+        cert_original_free(o);
+        return -1;
+    }
+    for (uint32_t t = 0; t < triangle_count; ++t) {
+        vec3d p[3], n;
+        triangle_of(o, t, p);
+        o->degenerate[t] = !geom_triangle_unit_normal(&p[0], &p[1], &p[2], &n);
+        o->normals[3 * (size_t)t] = n.x;
+        o->normals[3 * (size_t)t + 1] = n.y;
+        o->normals[3 * (size_t)t + 2] = n.z;
+    }
+    if (bvh_build(&o->tree, positions, vertex_count, triangles, triangle_count) != BVH_OK) {
+        cert_original_free(o);
+        return -1;
+    }
+    return 0;
+}
+
+void cert_original_free(cert_original *o)
+{
+    free(o->normals);
+    free(o->degenerate);
+    bvh_free(&o->tree);
+    memset(o, 0, sizeof *o);
+}
+
+void cert_face_normal(cert_tri *f)
+{
+    vec3d a = geom_vec3d_from_doubles(f->p[0]), b = geom_vec3d_from_doubles(f->p[1]),
+          c = geom_vec3d_from_doubles(f->p[2]), n;
+    f->degenerate = !geom_triangle_unit_normal(&a, &b, &c, &n);
+    f->n[0] = n.x;
+    f->n[1] = n.y;
+    f->n[2] = n.z;
+}
+
+/* ---- (a): a face of the level against the original -------------------------- */
+
+typedef struct face_filter {
+    const cert_original *o;
+    int32_t material;
+    const double *n;
+} face_filter;
+
+/* A witness for a level face: same material, a real normal pointing the same
+ * way (so a thin sheet is never certified against its other side). */
+static int witness_ok(void *context, uint32_t t)
+{
+    const face_filter *f = context;
+    const double *nt = f->o->normals + 3 * (size_t)t;
+    return f->o->material[t] == f->material && !f->o->degenerate[t] &&
+           nt[0] * f->n[0] + nt[1] * f->n[1] + nt[2] * f->n[2] > 0.0;
+}
+
+static double max_corner_distance(const vec3d piece[3], const vec3d tri[3])
+{
+    double worst = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        double d2 = geom_point_triangle_distance2(&piece[k], &tri[0], &tri[1], &tri[2], NULL);
+        if (!(d2 <= worst)) worst = d2; /* NaN propagates as "worst" */
+    }
+    return sqrt(worst);
+}
+
+static void split4(const vec3d p[3], vec3d out[4][3])
+{
+    vec3d m01 = geom_lerp(p[0], p[1], 0.5), m12 = geom_lerp(p[1], p[2], 0.5), m20 = geom_lerp(p[2], p[0], 0.5);
+    const vec3d pieces[4][3] = {{p[0], m01, m20}, {m01, p[1], m12}, {m20, m12, p[2]}, {m01, m12, m20}};
+    memcpy(out, pieces, sizeof pieces);
+}
+
+static int piece_a(const cert_original *o, face_filter *filter, const vec3d p[3], int depth, double eps,
+                   double accept, double *bound)
+{
+    vec3d c;
+    double r;
+    geom_triangle_enclosing_ball(&p[0], &p[1], &p[2], &c, &r);
+    const double cq[3] = {c.x, c.y, c.z};
+    bvh_hit hit;
+    /* The ball's centre lies in the piece; when nothing of the right kind is
+     * within eps of it, the piece cannot be certified at any depth. */
+    if (!bvh_closest_filtered(&o->tree, cq, eps, witness_ok, filter, &hit)) return 0;
+    const double d = sqrt(hit.distance2);
+    if (d + r <= accept) {
+        if (d + r > *bound) *bound = d + r;
+        return 1;
+    }
+    /* Convexity: the closest triangle or one around its corners may hold the
+     * whole piece within eps. */
+    double best = INFINITY;
+    for (int k = 0; k < 3; ++k) {
+        uint32_t v = o->triangles[3 * (size_t)hit.triangle + k];
+        for (uint32_t i = o->vertex_offsets[v]; i < o->vertex_offsets[v + 1]; ++i) {
+            uint32_t t = o->vertex_triangles[i];
+            if (!witness_ok(filter, t)) continue;
+            vec3d tri[3];
+            triangle_of(o, t, tri);
+            double m = max_corner_distance(p, tri);
+            if (m < best) best = m;
+        }
+    }
+    if (best <= accept) {
+        if (best > *bound) *bound = best;
+        return 1;
+    }
+    if (depth >= CERT_MAX_DEPTH) return 0;
+    vec3d pieces[4][3];
+    split4(p, pieces);
+    for (int k = 0; k < 4; ++k)
+        if (!piece_a(o, filter, pieces[k], depth + 1, eps, accept, bound)) return 0;
+    return 1;
+}
+
+int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bound)
+{
+    *bound = 0.0;
+    if (f->degenerate) return 0;
+    face_filter filter = {o, f->material, f->n};
+    vec3d p[3];
+    for (int k = 0; k < 3; ++k) p[k] = geom_vec3d_from_doubles(f->p[k]);
+    const double accept = eps * (1.0 - CERT_MARGIN);
+    return piece_a(o, &filter, p, 0, eps, accept, bound);
+}
+
+/* ---- (b): an original triangle against the level's faces -------------------- */
+
+typedef struct cover_state {
+    const cert_original *o;
+    uint32_t t;
+    const cert_tri *faces;
+    uint32_t count;
+    uint32_t *used;
+    uint32_t used_count;
+    double accept;
+    double bound;
+} cover_state;
+
+static int face_may_witness(const cover_state *s, const cert_tri *f)
+{
+    if (f->degenerate || f->material != s->o->material[s->t]) return 0;
+    if (s->o->degenerate[s->t]) return 1;
+    const double *nt = s->o->normals + 3 * (size_t)s->t;
+    return nt[0] * f->n[0] + nt[1] * f->n[1] + nt[2] * f->n[2] > 0.0;
+}
+
+static int already_used(const cover_state *s, uint32_t id)
+{
+    for (uint32_t i = 0; i < s->used_count; ++i)
+        if (s->used[i] == id) return 1;
+    return 0;
+}
+
+static int use_face(cover_state *s, uint32_t id, double value)
+{
+    if (!already_used(s, id)) {
+        if (s->used_count == CERT_MAX_WITNESSES) return 0;
+        s->used[s->used_count++] = id;
+    }
+    if (value > s->bound) s->bound = value;
+    return 1;
+}
+
+static int piece_b(cover_state *s, const vec3d p[3], int depth)
+{
+    /* Prefer a face already used (keeps the registration small), then the
+     * tightest one. */
+    double best_used = INFINITY, best_any = INFINITY;
+    uint32_t id_used = 0, id_any = 0;
+    vec3d c;
+    double r;
+    geom_triangle_enclosing_ball(&p[0], &p[1], &p[2], &c, &r);
+    double best_centre = INFINITY;
+    uint32_t id_centre = 0;
+    for (uint32_t i = 0; i < s->count; ++i) {
+        const cert_tri *f = &s->faces[i];
+        if (!face_may_witness(s, f)) continue;
+        vec3d tri[3];
+        for (int k = 0; k < 3; ++k) tri[k] = geom_vec3d_from_doubles(f->p[k]);
+        double m = max_corner_distance(p, tri);
+        if (m < best_any) {
+            best_any = m;
+            id_any = f->id;
+        }
+        if (m < best_used && already_used(s, f->id)) {
+            best_used = m;
+            id_used = f->id;
+        }
+        double dc = sqrt(geom_point_triangle_distance2(&c, &tri[0], &tri[1], &tri[2], NULL));
+        if (dc < best_centre) {
+            best_centre = dc;
+            id_centre = f->id;
+        }
+    }
+    if (best_used <= s->accept) return use_face(s, id_used, best_used);
+    if (best_any <= s->accept && use_face(s, id_any, best_any)) return 1;
+    if (best_centre + r <= s->accept && use_face(s, id_centre, best_centre + r)) return 1;
+    /* The centre lies in the piece: if it is not within eps, nothing helps. */
+    if (depth >= CERT_MAX_DEPTH || !(best_centre <= s->accept)) return 0;
+    vec3d pieces[4][3];
+    split4(p, pieces);
+    for (int k = 0; k < 4; ++k)
+        if (!piece_b(s, pieces[k], depth + 1)) return 0;
+    return 1;
+}
+
+int cert_cover(const cert_original *o, uint32_t t, const cert_tri *faces, uint32_t count, double eps,
+               uint32_t used[CERT_MAX_WITNESSES], uint32_t *used_count, double *bound)
+{
+    cover_state s = {o, t, faces, count, used, 0, eps * (1.0 - CERT_MARGIN), 0.0};
+    vec3d p[3];
+    triangle_of(o, t, p);
+    int ok = piece_b(&s, p, 0);
+    *used_count = s.used_count;
+    *bound = s.bound;
+    return ok;
+}

@@ -1,0 +1,82 @@
+/* certify.h - the two-sided certificate (DESIGN.md §4).
+ *
+ * The original mesh O is a fixed set of triangles with a material group and a
+ * unit normal each (a triangle whose normal cannot be computed is
+ * "degenerate"). Two tests decide, for a candidate level, whether a piece of
+ * surface is within eps of the other side:
+ *
+ * (a) cert_face: every point of the triangle F is within eps of the original
+ *     triangles of F's material whose normal agrees with F's (n_t . n_F > 0).
+ * (b) cert_cover: every point of the original triangle t is within eps of
+ *     the union of some (at most CERT_MAX_WITNESSES) of the candidate faces,
+ *     each of t's material and with a normal agreeing with t's (unless t is
+ *     degenerate: a segment has no side). The faces used are returned: they
+ *     are t's registration.
+ *
+ * What a "yes" proves. Both tests split the triangle in question into pieces
+ * (1-to-4 subdivision, depth <= CERT_MAX_DEPTH) and accept a piece P with one
+ * witness triangle W when either
+ *   - every corner of P is within eps of W: the distance to a fixed triangle
+ *     is convex, so its maximum over P is at a corner; or
+ *   - d(c, W) + r <= eps, where c, r are the centre and radius of P's minimal
+ *     enclosing ball: the distance is 1-Lipschitz.
+ * Every piece accepted means the whole triangle is within eps (the partition
+ * changes cost and tightness, never soundness). Distances are computed in
+ * double from float inputs; a value is accepted only when
+ * d <= eps * (1 - CERT_MARGIN), written as a positive comparison so that NaN
+ * rejects. The returned bound is the largest accepted value (<= eps).
+ *
+ * What it assumes: the caller passes the true current geometry of the faces.
+ * The tests are read-only on O and thread-safe. */
+#ifndef LODPIPE_CERTIFY_H
+#define LODPIPE_CERTIFY_H
+
+#include <stdint.h>
+
+#include "bvh.h"
+
+#define CERT_MAX_DEPTH 4
+#define CERT_MAX_WITNESSES 4
+#define CERT_MARGIN 1e-9
+
+typedef struct cert_original {
+    uint32_t triangle_count;
+    const float *positions;          /* borrowed, xyz per vertex */
+    const uint32_t *triangles;       /* borrowed, 3 vertices per triangle */
+    const int32_t *material;         /* borrowed, per triangle */
+    const uint32_t *vertex_offsets;  /* borrowed CSR: triangles around each vertex */
+    const uint32_t *vertex_triangles;
+    double *normals;                 /* owned: unit normal per triangle (0 when degenerate) */
+    uint8_t *degenerate;             /* owned */
+    bvh tree;
+} cert_original;
+
+/* Builds normals and the BVH. Returns 0, or -1 (out of memory / bad input). */
+int cert_original_init(cert_original *o, const float *positions, uint32_t vertex_count,
+                       const uint32_t *triangles, uint32_t triangle_count, const int32_t *material,
+                       const uint32_t *vertex_offsets, const uint32_t *vertex_triangles);
+void cert_original_free(cert_original *o);
+
+/* A candidate face: its current corners, material group and unit normal. */
+typedef struct cert_tri {
+    double p[3][3];
+    double n[3];
+    int32_t material;
+    int degenerate;
+    uint32_t id;
+} cert_tri;
+
+/* Fills n and degenerate from p. */
+void cert_face_normal(cert_tri *f);
+
+/* (a): 1 when F is certified within eps of O, with *bound the largest
+ * accepted value; 0 otherwise. A degenerate F is never certified. */
+int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bound);
+
+/* (b): 1 when original triangle t is certified within eps of the union of
+ * faces[0..count-1]; *used receives up to CERT_MAX_WITNESSES distinct face
+ * ids (in first-use order), *bound the largest accepted value. 0 otherwise. */
+int cert_cover(const cert_original *o, uint32_t t, const cert_tri *faces, uint32_t count, double eps,
+               uint32_t used[CERT_MAX_WITNESSES], uint32_t *used_count, double *bound);
+
+#endif

@@ -1,0 +1,1080 @@
+/* simplify.c - the certified simplification loop; see simplify.h.
+ *
+ * Follows DESIGN.md §6: candidates ordered by a Garland-Heckbert quadric; a
+ * sweep builds batches of candidates whose 3-rings are disjoint (Ramsey et
+ * al.'s independent sets), the batch is certified on all cores against a
+ * snapshot, and commits run serially in cost order. The cheap, necessary
+ * tests run first (kinds, link condition, degree floor, flip guard), then the
+ * certificate: (b) the originals whose registration a change touches, then
+ * (a) the changed faces (certify.h).
+ *
+ * The main loop, per level:
+ *   collect_candidates -> sort -> while unprocessed: build_batch ->
+ *   evaluate_batch (parallel) -> commit_batch (serial, in order)
+ */
+#include "simplify.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "certify.h"
+#include "geom.h"
+#include "quadric.h"
+#include "registry.h"
+
+#define NONE UINT32_MAX
+#define BATCH_SIZE 512      /* fixed: the result must not depend on the thread count */
+#define BATCH_WINDOW 8192   /* how far a batch looks ahead for independent candidates */
+#define TARGETS_TRIED 3     /* cheapest legal targets tried per candidate */
+#define MAX_CANDIDATE_FACES 384
+#define MAX_PASSES 400
+#define MAX_THREADS 64
+
+/* ---- growable scratch arrays (per thread; grown, never shrunk) ------------- */
+
+typedef struct u32vec {
+    uint32_t *data;
+    size_t size, cap;
+} u32vec;
+
+typedef struct f64vec {
+    double *data;
+    size_t size, cap;
+} f64vec;
+
+static int grow(void **data, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap) return 0;
+    size_t cap2 = *cap ? *cap : 64;
+    while (cap2 < need) cap2 *= 2;
+    void *p = realloc(*data, cap2 * elem);
+    if (!p) return -1;
+    *data = p;
+    *cap = cap2;
+    return 0;
+}
+
+static int u32_push(u32vec *v, uint32_t x)
+{
+    if (grow((void **)&v->data, &v->cap, v->size + 1, sizeof *v->data)) return -1;
+    v->data[v->size++] = x;
+    return 0;
+}
+
+static int f64_push(f64vec *v, double x)
+{
+    if (grow((void **)&v->data, &v->cap, v->size + 1, sizeof *v->data)) return -1;
+    v->data[v->size++] = x;
+    return 0;
+}
+
+/* One neighbour x of the candidate vertex u: the faces on edge (u, x). */
+typedef struct neighbour {
+    uint32_t x;
+    uint32_t count;     /* faces containing u and x */
+    uint32_t forward;   /* of those, faces where the edge runs u -> x */
+    uint32_t face[2];
+    int seam;           /* interior edge whose attributes or material change across it */
+    int class_change_at_u;
+    double cost;
+} neighbour;
+
+typedef struct scratch {
+    u32vec faces_u, faces_v, nbr_v, ring, cand_faces, recheck;
+    neighbour *nb;
+    size_t nb_size, nb_cap;
+    cert_tri *tris;
+    size_t tris_cap;
+    uint32_t *face_seen, *orig_seen, *vertex_seen; /* stamps, sized nf / nf / nv */
+    uint32_t stamp;
+    /* results of the candidates this thread evaluated */
+    u32vec out_u32;
+    f64vec out_f64;
+    int oom;
+} scratch;
+
+typedef struct candidate {
+    uint32_t u, v;      /* v == NONE: rejected */
+    int reason;
+    uint32_t thread;
+    size_t u32_off, f64_off;
+    uint32_t changed_count, recheck_count;
+    uint32_t attempts;
+    double cost;
+} candidate;
+
+typedef struct sim {
+    const weld_result *w;
+    uint32_t nv, nf;
+    int32_t *face_material;
+    uint32_t *corner_vertex, *corner_wedge, *corner_next;
+    uint8_t *face_alive;
+    double *face_bound, *orig_bound;
+    uint32_t *vertex_first;
+    uint8_t *vertex_alive;
+    uint32_t *version, *reject_version;
+    uint32_t *vertex_stamp, *orig_stamp;
+    uint32_t batch_stamp;
+    quadric *quadrics;
+    double origin[3];
+    registry reg;
+    cert_original orig;
+    uint8_t *death;
+    double eps, flip_cos;
+    int verify;
+    uint32_t level;
+    uint32_t thread_count;
+    scratch scratch[MAX_THREADS];
+    scratch serial; /* for the serial phases */
+    simplify_stats *stats;
+    char verify_msg[256];
+    int verify_failed;
+} sim;
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+static void vertex_position(const sim *s, uint32_t v, double out[3])
+{
+    for (int k = 0; k < 3; ++k) out[k] = s->w->positions[3 * (size_t)v + k];
+}
+
+static uint32_t wedge_class_of_corner(const sim *s, uint32_t c)
+{
+    return s->w->wedge_class[s->corner_wedge[c]];
+}
+
+/* Alive faces around v, from its corner list. */
+static int gather_faces(const sim *s, uint32_t v, u32vec *out)
+{
+    out->size = 0;
+    for (uint32_t c = s->vertex_first[v]; c != NONE; c = s->corner_next[c])
+        if (s->face_alive[c / 3] && s->corner_vertex[c] == v && u32_push(out, c / 3)) return -1;
+    return 0;
+}
+
+static uint32_t corner_of(const sim *s, uint32_t f, uint32_t v)
+{
+    for (uint32_t k = 0; k < 3; ++k)
+        if (s->corner_vertex[3 * f + k] == v) return 3 * f + k;
+    return NONE;
+}
+
+static int face_has(const sim *s, uint32_t f, uint32_t v) { return corner_of(s, f, v) != NONE; }
+
+/* ---- neighbourhood of a candidate -------------------------------------------- */
+
+static neighbour *find_or_add(scratch *sc, uint32_t x)
+{
+    for (size_t i = 0; i < sc->nb_size; ++i)
+        if (sc->nb[i].x == x) return &sc->nb[i];
+    if (grow((void **)&sc->nb, &sc->nb_cap, sc->nb_size + 1, sizeof *sc->nb)) return NULL;
+    neighbour *n = &sc->nb[sc->nb_size++];
+    memset(n, 0, sizeof *n);
+    n->x = x;
+    n->face[0] = n->face[1] = NONE;
+    return n;
+}
+
+/* Builds u's neighbour table from faces_u; returns the number of wedge
+ * classes at u (up to 3), or -1 on a non-manifold edge / no memory. */
+static int classify_neighbours(const sim *s, scratch *sc, uint32_t u)
+{
+    sc->nb_size = 0;
+    uint32_t classes[3], nclass = 0;
+    for (size_t i = 0; i < sc->faces_u.size; ++i) {
+        uint32_t f = sc->faces_u.data[i], cu = corner_of(s, f, u);
+        uint32_t k = cu - 3 * f, cls = wedge_class_of_corner(s, cu);
+        int known = 0;
+        for (uint32_t j = 0; j < nclass; ++j) known |= classes[j] == cls;
+        if (!known && nclass < 3) classes[nclass++] = cls;
+        uint32_t next = s->corner_vertex[3 * f + (k + 1) % 3], prev = s->corner_vertex[3 * f + (k + 2) % 3];
+        neighbour *a = find_or_add(sc, next), *b = find_or_add(sc, prev);
+        if (!a || !b) return -1;
+        a = find_or_add(sc, next); /* b's insertion may have moved the array */
+        if (a->count < 2) a->face[a->count] = f;
+        a->count++;
+        a->forward++;
+        if (b->count < 2) b->face[b->count] = f;
+        b->count++;
+    }
+    for (size_t i = 0; i < sc->nb_size; ++i) {
+        neighbour *n = &sc->nb[i];
+        if (n->count > 2 || (n->count == 2 && n->forward != 1)) return -1;
+        if (n->count == 2) {
+            uint32_t f0 = n->face[0], f1 = n->face[1];
+            uint32_t u0 = wedge_class_of_corner(s, corner_of(s, f0, u)), u1 = wedge_class_of_corner(s, corner_of(s, f1, u));
+            uint32_t x0 = wedge_class_of_corner(s, corner_of(s, f0, n->x)), x1 = wedge_class_of_corner(s, corner_of(s, f1, n->x));
+            n->class_change_at_u = u0 != u1;
+            n->seam = u0 != u1 || x0 != x1 || s->w->triangle_primitive[f0] != s->w->triangle_primitive[f1];
+        }
+    }
+    return (int)nclass;
+}
+
+/* Marks the targets the kind rules allow (cost >= 0) and prices them; the
+ * kind is recomputed from the current topology (weld.h's table). */
+static int legal_targets(const sim *s, scratch *sc, uint32_t u, int nclass)
+{
+    uint32_t borders = 0, seams_at_u = 0;
+    for (size_t i = 0; i < sc->nb_size; ++i) {
+        borders += sc->nb[i].count == 1;
+        seams_at_u += sc->nb[i].count == 2 && sc->nb[i].class_change_at_u;
+    }
+    weld_kind kind;
+    if (borders == 0 && nclass == 1) kind = WELD_MANIFOLD;
+    else if (borders == 2 && nclass == 1 && seams_at_u == 0) kind = WELD_BORDER;
+    else if (borders == 0 && nclass == 2 && seams_at_u == 2) kind = WELD_SEAM;
+    else return 0;
+    double pu[3], pv[3];
+    vertex_position(s, u, pu);
+    int legal = 0;
+    for (size_t i = 0; i < sc->nb_size; ++i) {
+        neighbour *n = &sc->nb[i];
+        uint8_t flags = n->count == 1 ? WELD_FLAG_BORDER : (n->seam ? WELD_FLAG_SEAM : 0);
+        int ok = weld_collapse_allowed(kind, flags);
+        if (ok && kind == WELD_SEAM) ok = n->class_change_at_u; /* along its own seam line */
+        if (!ok) {
+            n->cost = -1.0;
+            continue;
+        }
+        quadric q = s->quadrics[u];
+        quadric_add(&q, &s->quadrics[n->x]);
+        vertex_position(s, n->x, pv);
+        double rel[3] = {pv[0] - s->origin[0], pv[1] - s->origin[1], pv[2] - s->origin[2]};
+        n->cost = quadric_error(&q, rel);
+        legal++;
+    }
+    (void)pu;
+    return legal;
+}
+
+/* ---- evaluation of one candidate (read-only on the mesh) --------------------- */
+
+static void face_after(const sim *s, uint32_t f, uint32_t u, uint32_t v, cert_tri *t)
+{
+    for (int k = 0; k < 3; ++k) {
+        uint32_t x = s->corner_vertex[3 * f + k];
+        vertex_position(s, x == u ? v : x, t->p[k]);
+    }
+    t->material = s->face_material[f];
+    t->id = f;
+    cert_face_normal(t);
+}
+
+static int next_stamp(scratch *sc)
+{
+    if (++sc->stamp == 0) return -1; /* 4 billion candidates: never in practice */
+    return 0;
+}
+
+static int add_candidate_face(const sim *s, scratch *sc, uint32_t f, uint32_t u, uint32_t v)
+{
+    if (sc->face_seen[f] == sc->stamp || !s->face_alive[f]) return 0;
+    if (face_has(s, f, u) && face_has(s, f, v)) return 0; /* removed by the collapse */
+    sc->face_seen[f] = sc->stamp;
+    if (sc->cand_faces.size >= MAX_CANDIDATE_FACES) return 0;
+    return u32_push(&sc->cand_faces, f);
+}
+
+/* Link condition (Dey et al.): the common neighbours of u and v are exactly
+ * the far corners of the faces on edge (u, v); plus a degree floor so that no
+ * vertex is left with fewer than 3 faces. */
+static int link_ok(const sim *s, scratch *sc, uint32_t u, const neighbour *e)
+{
+    const uint32_t v = e->x;
+    if (gather_faces(s, v, &sc->faces_v)) return -1;
+    if (next_stamp(sc)) return -1;
+    for (size_t i = 0; i < sc->nb_size; ++i) sc->vertex_seen[sc->nb[i].x] = sc->stamp;
+    uint32_t common = 0;
+    sc->nbr_v.size = 0;
+    for (size_t i = 0; i < sc->faces_v.size; ++i) {
+        uint32_t f = sc->faces_v.data[i];
+        for (int k = 0; k < 3; ++k) {
+            uint32_t x = s->corner_vertex[3 * f + k];
+            if (x == v || x == u) continue;
+            if (sc->vertex_seen[x] == sc->stamp) {
+                common++;
+                sc->vertex_seen[x] = sc->stamp - 1; /* count once */
+            }
+        }
+    }
+    if (common != e->count) return 0;
+    /* faces left around v and around the far corners */
+    size_t v_after = sc->faces_v.size - e->count + (sc->faces_u.size - e->count);
+    if (v_after < 3) return 0;
+    for (uint32_t i = 0; i < e->count; ++i) {
+        uint32_t f = e->face[i], far = NONE;
+        for (int k = 0; k < 3; ++k)
+            if (s->corner_vertex[3 * f + k] != u && s->corner_vertex[3 * f + k] != v) far = s->corner_vertex[3 * f + k];
+        uint32_t n = 0;
+        for (uint32_t c = s->vertex_first[far]; c != NONE; c = s->corner_next[c])
+            n += s->face_alive[c / 3] && s->corner_vertex[c] == far;
+        if (n < 4) return 0;
+    }
+    (void)u;
+    return 1;
+}
+
+static int flip_ok(const sim *s, scratch *sc, uint32_t u, uint32_t v)
+{
+    for (size_t i = 0; i < sc->faces_u.size; ++i) {
+        uint32_t f = sc->faces_u.data[i];
+        if (face_has(s, f, v)) continue;
+        cert_tri before, after;
+        face_after(s, f, NONE, NONE, &before);
+        face_after(s, f, u, v, &after);
+        if (after.degenerate) return 0;
+        if (before.degenerate) continue;
+        double c = before.n[0] * after.n[0] + before.n[1] * after.n[1] + before.n[2] * after.n[2];
+        if (!(c > s->flip_cos)) return 0;
+    }
+    return 1;
+}
+
+/* Certifies the collapse u -> v. On success appends its records to the
+ * thread's arena: changed face ids + bounds, then per re-certified original
+ * (t, n, used[4]) + bound. Returns 1 accepted, 0 rejected (reason set). */
+static int certify_collapse(const sim *s, scratch *sc, candidate *c, uint32_t u, uint32_t v)
+{
+    const double eps = s->eps;
+    /* originals whose registration uses a face that changes or dies */
+    if (next_stamp(sc)) return 0;
+    sc->recheck.size = 0;
+    for (size_t i = 0; i < sc->faces_u.size; ++i)
+        REGISTRY_FOR_EACH(&s->reg, sc->faces_u.data[i], slot) {
+            uint32_t t = slot / REGISTRY_SLOTS;
+            if (sc->orig_seen[t] != sc->stamp) {
+                sc->orig_seen[t] = sc->stamp;
+                if (u32_push(&sc->recheck, t)) return sc->oom = 1, 0;
+            }
+        }
+    /* candidate faces: the new star, v's other faces, then the 2-ring */
+    sc->cand_faces.size = 0;
+    for (size_t i = 0; i < sc->faces_u.size; ++i)
+        if (add_candidate_face(s, sc, sc->faces_u.data[i], u, v)) return sc->oom = 1, 0;
+    for (size_t i = 0; i < sc->faces_v.size; ++i)
+        if (add_candidate_face(s, sc, sc->faces_v.data[i], u, v)) return sc->oom = 1, 0;
+    size_t ring_faces = sc->cand_faces.size;
+    for (size_t i = 0; i < ring_faces; ++i) {
+        uint32_t f = sc->cand_faces.data[i];
+        for (int k = 0; k < 3; ++k) {
+            uint32_t x = s->corner_vertex[3 * f + k];
+            for (uint32_t cc = s->vertex_first[x]; cc != NONE; cc = s->corner_next[cc])
+                if (s->corner_vertex[cc] == x && add_candidate_face(s, sc, cc / 3, u, v)) return sc->oom = 1, 0;
+        }
+    }
+    for (size_t i = 0; i < sc->recheck.size; ++i) {
+        uint32_t t = sc->recheck.data[i];
+        for (uint32_t k = 0; k < REGISTRY_SLOTS; ++k) {
+            uint32_t f = s->reg.slot_face[t * REGISTRY_SLOTS + k];
+            if (f != REGISTRY_NONE && add_candidate_face(s, sc, f, u, v)) return sc->oom = 1, 0;
+        }
+    }
+    if (grow((void **)&sc->tris, &sc->tris_cap, sc->cand_faces.size + 1, sizeof *sc->tris)) return sc->oom = 1, 0;
+    for (size_t i = 0; i < sc->cand_faces.size; ++i) face_after(s, sc->cand_faces.data[i], u, v, &sc->tris[i]);
+
+    const size_t u32_start = sc->out_u32.size, f64_start = sc->out_f64.size;
+    /* (b) first: the originals must stay covered */
+    for (size_t i = 0; i < sc->recheck.size; ++i) {
+        uint32_t t = sc->recheck.data[i], used[CERT_MAX_WITNESSES], n = 0;
+        double bound;
+        if (!cert_cover(&s->orig, t, sc->tris, (uint32_t)sc->cand_faces.size, eps, used, &n, &bound)) {
+            sc->out_u32.size = u32_start;
+            sc->out_f64.size = f64_start;
+            c->reason = SIMPLIFY_REJECT_COVER;
+            return 0;
+        }
+        if (u32_push(&sc->out_u32, t) || u32_push(&sc->out_u32, n)) return sc->oom = 1, 0;
+        for (uint32_t k = 0; k < CERT_MAX_WITNESSES; ++k)
+            if (u32_push(&sc->out_u32, k < n ? used[k] : NONE)) return sc->oom = 1, 0;
+        if (f64_push(&sc->out_f64, bound)) return sc->oom = 1, 0;
+    }
+    /* (a): every changed face within eps of the original */
+    const size_t u32_faces = sc->out_u32.size, f64_faces = sc->out_f64.size;
+    uint32_t changed = 0;
+    for (size_t i = 0; i < sc->faces_u.size; ++i) {
+        uint32_t f = sc->faces_u.data[i];
+        if (face_has(s, f, v)) continue;
+        cert_tri t;
+        face_after(s, f, u, v, &t);
+        double bound;
+        if (!cert_face(&s->orig, &t, eps, &bound)) {
+            sc->out_u32.size = u32_start;
+            sc->out_f64.size = f64_start;
+            c->reason = SIMPLIFY_REJECT_FACE;
+            return 0;
+        }
+        if (u32_push(&sc->out_u32, f) || f64_push(&sc->out_f64, bound)) return sc->oom = 1, 0;
+        changed++;
+    }
+    c->u32_off = u32_start;
+    c->f64_off = f64_start;
+    c->recheck_count = (uint32_t)sc->recheck.size;
+    c->changed_count = changed;
+    (void)u32_faces;
+    (void)f64_faces;
+    return 1;
+}
+
+static int compare_neighbour_cost(const void *a, const void *b)
+{
+    const neighbour *x = a, *y = b;
+    if (x->cost != y->cost) return x->cost < y->cost ? -1 : 1;
+    return x->x < y->x ? -1 : x->x > y->x;
+}
+
+static void evaluate(const sim *s, scratch *sc, candidate *c)
+{
+    const uint32_t u = c->u;
+    c->v = NONE;
+    c->reason = SIMPLIFY_REJECT_KIND;
+    c->attempts = 0;
+    if (!s->vertex_alive[u] || s->w->vertex_kind[u] == WELD_LOCKED) return;
+    if (gather_faces(s, u, &sc->faces_u)) {
+        sc->oom = 1;
+        return;
+    }
+    int nclass = classify_neighbours(s, sc, u);
+    if (nclass <= 0) return;
+    if (legal_targets(s, sc, u, nclass) == 0) return;
+    qsort(sc->nb, sc->nb_size, sizeof *sc->nb, compare_neighbour_cost);
+    uint32_t tried = 0;
+    for (size_t i = 0; i < sc->nb_size && tried < TARGETS_TRIED; ++i) {
+        const neighbour *e = &sc->nb[i];
+        if (e->cost < 0.0) continue;
+        tried++;
+        c->attempts++;
+        int link = link_ok(s, sc, u, e);
+        if (link < 0) {
+            sc->oom = 1;
+            return;
+        }
+        if (!link) {
+            c->reason = SIMPLIFY_REJECT_LINK;
+            continue;
+        }
+        if (!flip_ok(s, sc, u, e->x)) {
+            c->reason = SIMPLIFY_REJECT_FLIP;
+            continue;
+        }
+        if (certify_collapse(s, sc, c, u, e->x)) {
+            c->v = e->x;
+            c->cost = e->cost;
+            return;
+        }
+        if (sc->oom) return;
+    }
+}
+
+/* ---- parallel evaluation of a batch ------------------------------------------ */
+
+typedef struct batch_job {
+    sim *s;
+    candidate *cands;
+    size_t count;
+    atomic_size_t next;
+} batch_job;
+
+typedef struct worker_arg {
+    batch_job *job;
+    uint32_t thread;
+} worker_arg;
+
+static void *worker(void *p)
+{
+    worker_arg *a = p;
+    batch_job *job = a->job;
+    scratch *sc = &job->s->scratch[a->thread];
+    for (;;) {
+        size_t i = atomic_fetch_add(&job->next, 1);
+        if (i >= job->count) break;
+        job->cands[i].thread = a->thread;
+        evaluate(job->s, sc, &job->cands[i]);
+    }
+    return NULL;
+}
+
+static void evaluate_batch(sim *s, candidate *cands, size_t count)
+{
+    batch_job job = {s, cands, count, 0};
+    for (uint32_t t = 0; t < s->thread_count; ++t) {
+        s->scratch[t].out_u32.size = 0;
+        s->scratch[t].out_f64.size = 0;
+    }
+    worker_arg args[MAX_THREADS];
+    pthread_t threads[MAX_THREADS];
+    uint32_t started = 0;
+    uint32_t want = s->thread_count;
+    if (want > count) want = (uint32_t)count;
+    for (uint32_t t = 1; t < want; ++t) {
+        args[t].job = &job;
+        args[t].thread = t;
+        if (pthread_create(&threads[t], NULL, worker, &args[t]) != 0) break;
+        started = t;
+    }
+    args[0].job = &job;
+    args[0].thread = 0;
+    worker(&args[0]);
+    for (uint32_t t = 1; t <= started; ++t) pthread_join(threads[t], NULL);
+}
+
+/* ---- commit -------------------------------------------------------------------- */
+
+static void bump_versions(sim *s, uint32_t v)
+{
+    scratch *sc = &s->serial;
+    if (gather_faces(s, v, &sc->ring)) {
+        sc->oom = 1;
+        return;
+    }
+    s->version[v]++;
+    for (size_t i = 0; i < sc->ring.size; ++i)
+        for (int k = 0; k < 3; ++k) {
+            uint32_t x = s->corner_vertex[3 * sc->ring.data[i] + k];
+            s->version[x]++;
+            for (uint32_t c = s->vertex_first[x]; c != NONE; c = s->corner_next[c])
+                if (s->face_alive[c / 3] && s->corner_vertex[c] == x)
+                    for (int j = 0; j < 3; ++j) s->version[s->corner_vertex[3 * (c / 3) + j]]++;
+        }
+}
+
+/* Drops corners of dead faces and corners that no longer belong to v. */
+static void prune_corner_list(sim *s, uint32_t v)
+{
+    uint32_t *link = &s->vertex_first[v];
+    while (*link != NONE) {
+        uint32_t c = *link;
+        if (!s->face_alive[c / 3] || s->corner_vertex[c] != v) *link = s->corner_next[c];
+        else link = &s->corner_next[c];
+    }
+}
+
+static int verify_after_commit(sim *s, const candidate *c);
+
+/* Applies an accepted collapse. Returns 1 committed, 0 skipped because an
+ * earlier commit of the batch re-registered one of its originals. */
+static int commit(sim *s, const candidate *c)
+{
+    const uint32_t u = c->u, v = c->v;
+    const scratch *res = &s->scratch[c->thread];
+    const uint32_t *regs = res->out_u32.data + c->u32_off;
+    const double *reg_bounds = res->out_f64.data + c->f64_off;
+    const uint32_t *changed = regs + (size_t)c->recheck_count * (2 + CERT_MAX_WITNESSES);
+    const double *changed_bounds = reg_bounds + c->recheck_count;
+    for (uint32_t i = 0; i < c->recheck_count; ++i)
+        if (s->orig_stamp[regs[i * (2 + CERT_MAX_WITNESSES)]] == s->batch_stamp) return 0;
+
+    scratch *sc = &s->serial;
+    if (gather_faces(s, u, &sc->faces_u)) return sc->oom = 1, 0;
+    /* which of v's wedges replaces u's in each face: read from the faces on
+     * edge (u, v), one per side (two for a seam) */
+    uint32_t map_class[2] = {NONE, NONE}, map_wedge[2] = {NONE, NONE}, mapped = 0;
+    for (size_t i = 0; i < sc->faces_u.size; ++i) {
+        uint32_t f = sc->faces_u.data[i], cv = corner_of(s, f, v);
+        if (cv == NONE || mapped == 2) continue;
+        map_class[mapped] = wedge_class_of_corner(s, corner_of(s, f, u));
+        map_wedge[mapped] = s->corner_wedge[cv];
+        mapped++;
+    }
+    for (size_t i = 0; i < sc->faces_u.size; ++i) {
+        uint32_t f = sc->faces_u.data[i], cu = corner_of(s, f, u);
+        if (face_has(s, f, v)) {
+            s->face_alive[f] = 0;
+            continue;
+        }
+        uint32_t cls = wedge_class_of_corner(s, cu), wedge = NONE;
+        for (uint32_t k = 0; k < mapped; ++k)
+            if (map_class[k] == cls) wedge = map_wedge[k];
+        if (wedge == NONE) { /* the kind rules exclude this; never write a wrong attribute */
+            s->verify_failed = 1;
+            snprintf(s->verify_msg, sizeof s->verify_msg, "collapse %u -> %u: no wedge of v for face %u", u, v, f);
+            return 0;
+        }
+        s->corner_vertex[cu] = v;
+        s->corner_wedge[cu] = wedge;
+    }
+    for (uint32_t i = 0; i < c->changed_count; ++i) s->face_bound[changed[i]] = changed_bounds[i];
+    for (uint32_t i = 0; i < c->recheck_count; ++i) {
+        const uint32_t *r = regs + (size_t)i * (2 + CERT_MAX_WITNESSES);
+        registry_clear(&s->reg, r[0]);
+        registry_set(&s->reg, r[0], r + 2, r[1]);
+        s->orig_bound[r[0]] = reg_bounds[i];
+        s->orig_stamp[r[0]] = s->batch_stamp;
+    }
+    /* u's corners join v's list */
+    uint32_t cnext;
+    for (uint32_t cc = s->vertex_first[u]; cc != NONE; cc = cnext) {
+        cnext = s->corner_next[cc];
+        if (s->face_alive[cc / 3] && s->corner_vertex[cc] == v) {
+            s->corner_next[cc] = s->vertex_first[v];
+            s->vertex_first[v] = cc;
+        }
+    }
+    s->vertex_first[u] = NONE;
+    prune_corner_list(s, v);
+    quadric_add(&s->quadrics[v], &s->quadrics[u]);
+    s->vertex_alive[u] = 0;
+    s->death[u] = (uint8_t)(s->level + 1);
+    bump_versions(s, v);
+    if (s->verify && verify_after_commit(s, c) != 0) return 0;
+    return 1;
+}
+
+/* ---- the invariant checker (LODPIPE_VERIFY=1) --------------------------------- */
+
+/* Registrations agree both ways; every alive face has alive, distinct
+ * vertices; every original is still covered by its registered faces and every
+ * face changed by the commit is still within eps (re-certified from scratch). */
+static int verify_state(sim *s, const uint32_t *originals, size_t original_count, const uint32_t *faces,
+                        size_t face_count)
+{
+    if (registry_verify(&s->reg, s->face_alive, s->verify_msg, sizeof s->verify_msg) != 0) return -1;
+    for (uint32_t f = 0; f < s->nf; ++f) {
+        if (!s->face_alive[f]) continue;
+        for (int k = 0; k < 3; ++k) {
+            uint32_t x = s->corner_vertex[3 * f + k];
+            if (!s->vertex_alive[x] || x == s->corner_vertex[3 * f + (k + 1) % 3]) {
+                snprintf(s->verify_msg, sizeof s->verify_msg, "face %u has a dead or repeated vertex %u", f, x);
+                return -1;
+            }
+        }
+    }
+    scratch *sc = &s->serial;
+    for (size_t i = 0; i < original_count; ++i) {
+        uint32_t t = originals[i], n = 0, used[CERT_MAX_WITNESSES];
+        for (uint32_t k = 0; k < REGISTRY_SLOTS; ++k) {
+            uint32_t f = s->reg.slot_face[t * REGISTRY_SLOTS + k];
+            if (f == REGISTRY_NONE) continue;
+            if (grow((void **)&sc->tris, &sc->tris_cap, n + 1, sizeof *sc->tris)) return sc->oom = 1, -1;
+            face_after(s, f, NONE, NONE, &sc->tris[n++]);
+        }
+        double bound;
+        uint32_t got;
+        if (!cert_cover(&s->orig, t, sc->tris, n, s->eps, used, &got, &bound) ||
+            bound > s->orig_bound[t] * (1 + 1e-12) + 1e-300) {
+            snprintf(s->verify_msg, sizeof s->verify_msg,
+                     "original %u is not covered by its registered faces within its recorded bound", t);
+            return -1;
+        }
+    }
+    for (size_t i = 0; i < face_count; ++i) {
+        cert_tri t;
+        face_after(s, faces[i], NONE, NONE, &t);
+        double bound;
+        if (s->face_alive[faces[i]] && !cert_face(&s->orig, &t, s->eps, &bound)) {
+            snprintf(s->verify_msg, sizeof s->verify_msg, "face %u is not within eps of the original", faces[i]);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+static int verify_after_commit(sim *s, const candidate *c)
+{
+    const scratch *res = &s->scratch[c->thread];
+    const uint32_t *regs = res->out_u32.data + c->u32_off;
+    u32vec originals = {0}, faces = {0};
+    int rc = 0;
+    for (uint32_t i = 0; i < c->recheck_count && !rc; ++i)
+        rc = u32_push(&originals, regs[(size_t)i * (2 + CERT_MAX_WITNESSES)]);
+    const uint32_t *changed = regs + (size_t)c->recheck_count * (2 + CERT_MAX_WITNESSES);
+    for (uint32_t i = 0; i < c->changed_count && !rc; ++i) rc = u32_push(&faces, changed[i]);
+    if (!rc) rc = verify_state(s, originals.data, originals.size, faces.data, faces.size);
+    free(originals.data);
+    free(faces.data);
+    if (rc) s->verify_failed = 1;
+    return rc;
+}
+
+/* ---- candidates, batches, passes ----------------------------------------------- */
+
+typedef struct ranked {
+    double cost;
+    uint32_t u;
+} ranked;
+
+static int compare_ranked(const void *a, const void *b)
+{
+    const ranked *x = a, *y = b;
+    if (x->cost != y->cost) return x->cost < y->cost ? -1 : 1;
+    return x->u < y->u ? -1 : x->u > y->u;
+}
+
+/* Vertices worth evaluating, cheapest first: alive, not locked, not rejected
+ * since their neighbourhood last changed; the cost is that of the cheapest
+ * neighbour (an ordering hint; evaluation applies the rules). */
+static size_t collect_candidates(sim *s, ranked *out)
+{
+    size_t n = 0;
+    double pu[3], pv[3];
+    for (uint32_t u = 0; u < s->nv; ++u) {
+        if (!s->vertex_alive[u] || s->w->vertex_kind[u] == WELD_LOCKED) continue;
+        if (s->reject_version[u] == s->version[u]) continue;
+        vertex_position(s, u, pu);
+        double best = INFINITY;
+        for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c]) {
+            if (!s->face_alive[c / 3] || s->corner_vertex[c] != u) continue;
+            uint32_t x = s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3];
+            quadric q = s->quadrics[u];
+            quadric_add(&q, &s->quadrics[x]);
+            vertex_position(s, x, pv);
+            double rel[3] = {pv[0] - s->origin[0], pv[1] - s->origin[1], pv[2] - s->origin[2]};
+            double e = quadric_error(&q, rel);
+            if (e < best) best = e;
+        }
+        if (best < INFINITY) {
+            out[n].cost = best;
+            out[n].u = u;
+            n++;
+        }
+    }
+    qsort(out, n, sizeof *out, compare_ranked);
+    return n;
+}
+
+/* The vertices a candidate's evaluation may read or its commit may write:
+ * everything within three edges of u. Returns 1 and reserves them when none
+ * is reserved by the batch already. */
+static int reserve_footprint(sim *s, uint32_t u)
+{
+    scratch *sc = &s->serial;
+    sc->ring.size = 0;
+    if (u32_push(&sc->ring, u)) return sc->oom = 1, 0;
+    if (next_stamp(sc)) return 0;
+    sc->vertex_seen[u] = sc->stamp;
+    size_t begin = 0;
+    for (int depth = 0; depth < 3; ++depth) {
+        size_t end = sc->ring.size;
+        for (size_t i = begin; i < end; ++i) {
+            uint32_t x = sc->ring.data[i];
+            for (uint32_t c = s->vertex_first[x]; c != NONE; c = s->corner_next[c]) {
+                if (!s->face_alive[c / 3] || s->corner_vertex[c] != x) continue;
+                for (int k = 0; k < 3; ++k) {
+                    uint32_t y = s->corner_vertex[3 * (c / 3) + k];
+                    if (sc->vertex_seen[y] == sc->stamp) continue;
+                    sc->vertex_seen[y] = sc->stamp;
+                    if (u32_push(&sc->ring, y)) return sc->oom = 1, 0;
+                }
+            }
+        }
+        begin = end;
+    }
+    for (size_t i = 0; i < sc->ring.size; ++i)
+        if (s->vertex_stamp[sc->ring.data[i]] == s->batch_stamp) return 0;
+    for (size_t i = 0; i < sc->ring.size; ++i) s->vertex_stamp[sc->ring.data[i]] = s->batch_stamp;
+    return 1;
+}
+
+/* One pass over the candidates; returns the number of commits, or -1. */
+static long run_pass(sim *s, ranked *ranks, uint8_t *done, candidate *batch)
+{
+    simplify_stats *st = s->stats;
+    double t0 = now_seconds();
+    size_t n = collect_candidates(s, ranks);
+    st->seconds_select += now_seconds() - t0;
+    memset(done, 0, n);
+    size_t first = 0;
+    long commits = 0;
+    while (first < n) {
+        if (++s->batch_stamp == 0) return -1;
+        double t1 = now_seconds();
+        size_t count = 0;
+        for (size_t i = first; i < n && i < first + BATCH_WINDOW && count < BATCH_SIZE; ++i) {
+            if (done[i] || !reserve_footprint(s, ranks[i].u)) continue;
+            done[i] = 1;
+            batch[count].u = ranks[i].u;
+            count++;
+        }
+        if (s->serial.oom) return -1;
+        while (first < n && done[first]) first++;
+        st->seconds_select += now_seconds() - t1;
+        if (count == 0) break;
+        double t2 = now_seconds();
+        evaluate_batch(s, batch, count);
+        double t3 = now_seconds();
+        st->seconds_certify += t3 - t2;
+        st->batches++;
+        for (uint32_t t = 0; t < s->thread_count; ++t)
+            if (s->scratch[t].oom) return -1;
+        for (size_t i = 0; i < count; ++i) {
+            candidate *c = &batch[i];
+            st->candidates++;
+            st->attempts += c->attempts;
+            if (c->v == NONE) {
+                st->rejected[c->reason]++;
+                s->reject_version[c->u] = s->version[c->u];
+                continue;
+            }
+            if (!commit(s, c)) {
+                if (s->verify_failed || s->serial.oom) return -1;
+                st->rejected[SIMPLIFY_REJECT_CONFLICT]++;
+                continue;
+            }
+            st->commits++;
+            commits++;
+        }
+        st->seconds_commit += now_seconds() - t3;
+    }
+    return commits;
+}
+
+/* ---- set-up -------------------------------------------------------------------- */
+
+static void add_plane(sim *s, uint32_t f)
+{
+    const uint32_t *tv = s->w->triangle_vertices + 3 * (size_t)f;
+    vec3d p[3], n;
+    for (int k = 0; k < 3; ++k) {
+        p[k] = geom_vec3d_from_floats(s->w->positions + 3 * (size_t)tv[k]);
+        p[k] = geom_sub(p[k], geom_vec3d(s->origin[0], s->origin[1], s->origin[2]));
+    }
+    vec3d cr = geom_triangle_normal(&p[0], &p[1], &p[2]);
+    double area2 = geom_length(cr);
+    if (!geom_triangle_unit_normal(&p[0], &p[1], &p[2], &n)) return;
+    const double nn[3] = {n.x, n.y, n.z};
+    quadric q;
+    quadric_from_plane(&q, nn, -geom_dot(n, p[0]), area2 * 0.5);
+    for (int k = 0; k < 3; ++k) quadric_add(&s->quadrics[tv[k]], &q);
+    /* border edges keep their place: a plane through the edge, perpendicular to the face */
+    for (int k = 0; k < 3; ++k) {
+        if (!(s->w->edge_flags[3 * (size_t)f + k] & WELD_FLAG_BORDER)) continue;
+        vec3d e = geom_sub(p[(k + 1) % 3], p[k]);
+        vec3d m = geom_cross(e, n);
+        double len = geom_length(m);
+        if (!(len > 0)) continue;
+        m = geom_scale(m, 1.0 / len);
+        const double mm[3] = {m.x, m.y, m.z};
+        quadric_from_plane(&q, mm, -geom_dot(m, p[k]), geom_length2(e) * 4.0);
+        quadric_add(&s->quadrics[tv[k]], &q);
+        quadric_add(&s->quadrics[tv[(k + 1) % 3]], &q);
+    }
+}
+
+static void sim_free(sim *s)
+{
+    free(s->face_material);
+    free(s->corner_vertex);
+    free(s->corner_wedge);
+    free(s->corner_next);
+    free(s->face_alive);
+    free(s->face_bound);
+    free(s->orig_bound);
+    free(s->vertex_first);
+    free(s->vertex_alive);
+    free(s->version);
+    free(s->reject_version);
+    free(s->vertex_stamp);
+    free(s->orig_stamp);
+    free(s->quadrics);
+    registry_free(&s->reg);
+    cert_original_free(&s->orig);
+    for (uint32_t t = 0; t <= MAX_THREADS; ++t) {
+        scratch *sc = t < MAX_THREADS ? &s->scratch[t] : &s->serial;
+        free(sc->faces_u.data);
+        free(sc->faces_v.data);
+        free(sc->nbr_v.data);
+        free(sc->ring.data);
+        free(sc->cand_faces.data);
+        free(sc->recheck.data);
+        free(sc->nb);
+        free(sc->tris);
+        free(sc->face_seen);
+        free(sc->orig_seen);
+        free(sc->vertex_seen);
+        free(sc->out_u32.data);
+        free(sc->out_f64.data);
+    }
+}
+
+static int scratch_init(scratch *sc, uint32_t nv, uint32_t nf)
+{
+    sc->face_seen = calloc((size_t)nf + 1, sizeof *sc->face_seen);
+    sc->orig_seen = calloc((size_t)nf + 1, sizeof *sc->orig_seen);
+    sc->vertex_seen = calloc((size_t)nv + 1, sizeof *sc->vertex_seen);
+    return sc->face_seen && sc->orig_seen && sc->vertex_seen ? 0 : -1;
+}
+
+static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_material, const simplify_options *o)
+{
+    const uint32_t nv = w->vertex_count, nf = w->triangle_count;
+    s->w = w;
+    s->nv = nv;
+    s->nf = nf;
+    s->flip_cos = o->flip_cos;
+    s->verify = o->verify;
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    s->thread_count = o->threads ? o->threads : (cores > 0 ? (uint32_t)cores : 1);
+    if (s->thread_count > MAX_THREADS) s->thread_count = MAX_THREADS;
+    s->face_material = malloc(((size_t)nf + 1) * sizeof *s->face_material);
+    s->corner_vertex = malloc((3 * (size_t)nf + 1) * sizeof *s->corner_vertex);
+    s->corner_wedge = malloc((3 * (size_t)nf + 1) * sizeof *s->corner_wedge);
+    s->corner_next = malloc((3 * (size_t)nf + 1) * sizeof *s->corner_next);
+    s->face_alive = malloc((size_t)nf + 1);
+    s->face_bound = calloc((size_t)nf + 1, sizeof *s->face_bound);
+    s->orig_bound = calloc((size_t)nf + 1, sizeof *s->orig_bound);
+    s->vertex_first = malloc(((size_t)nv + 1) * sizeof *s->vertex_first);
+    s->vertex_alive = malloc((size_t)nv + 1);
+    s->version = calloc((size_t)nv + 1, sizeof *s->version);
+    s->reject_version = malloc(((size_t)nv + 1) * sizeof *s->reject_version);
+    s->vertex_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_stamp);
+    s->orig_stamp = calloc((size_t)nf + 1, sizeof *s->orig_stamp);
+    s->quadrics = calloc((size_t)nv + 1, sizeof *s->quadrics);
+    if (!s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next || !s->face_alive ||
+        !s->face_bound || !s->orig_bound || !s->vertex_first || !s->vertex_alive || !s->version ||
+        !s->reject_version || !s->vertex_stamp || !s->orig_stamp || !s->quadrics)
+        return -1;
+    for (uint32_t t = 0; t < s->thread_count; ++t)
+        if (scratch_init(&s->scratch[t], nv, nf)) return -1;
+    if (scratch_init(&s->serial, nv, nf)) return -1;
+    for (uint32_t f = 0; f < nf; ++f) {
+        int64_t m = primitive_material[w->triangle_primitive[f]];
+        s->face_material[f] = m < 0 ? -1 : (int32_t)(m > INT32_MAX ? INT32_MAX : m);
+    }
+    memcpy(s->corner_vertex, w->triangle_vertices, 3 * (size_t)nf * sizeof *s->corner_vertex);
+    memcpy(s->corner_wedge, w->triangle_wedges, 3 * (size_t)nf * sizeof *s->corner_wedge);
+    memset(s->face_alive, 1, nf);
+    memset(s->vertex_alive, 1, nv);
+    memset(s->vertex_first, 0xff, ((size_t)nv + 1) * sizeof *s->vertex_first);
+    memset(s->reject_version, 0xff, ((size_t)nv + 1) * sizeof *s->reject_version);
+    for (uint32_t c = 3 * nf; c-- > 0;) { /* lists in ascending corner order */
+        uint32_t v = s->corner_vertex[c];
+        s->corner_next[c] = s->vertex_first[v];
+        s->vertex_first[v] = c;
+    }
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t v = 0; v < nv; ++v)
+        for (int k = 0; k < 3; ++k) {
+            double x = w->positions[3 * (size_t)v + k];
+            if (x < lo[k]) lo[k] = x;
+            if (x > hi[k]) hi[k] = x;
+        }
+    for (int k = 0; k < 3; ++k) s->origin[k] = nv ? 0.5 * (lo[k] + hi[k]) : 0.0;
+    for (uint32_t f = 0; f < nf; ++f) add_plane(s, f);
+    if (registry_init(&s->reg, nf)) return -1;
+    if (cert_original_init(&s->orig, w->positions, nv, w->triangle_vertices, nf, s->face_material,
+                           w->vertex_triangle_offsets, w->vertex_triangles))
+        return -1;
+    return 0;
+}
+
+/* ---- levels -------------------------------------------------------------------- */
+
+static int snapshot_level(sim *s, simplify_level *level)
+{
+    uint32_t alive = 0;
+    double bound = 0.0;
+    for (uint32_t f = 0; f < s->nf; ++f)
+        if (s->face_alive[f]) {
+            alive++;
+            if (s->face_bound[f] > bound) bound = s->face_bound[f];
+        }
+    for (uint32_t t = 0; t < s->nf; ++t)
+        if (s->orig_bound[t] > bound) bound = s->orig_bound[t];
+    level->bound = bound;
+    level->triangle_count = alive;
+    level->wedges = malloc(((size_t)alive * 3 + 1) * sizeof *level->wedges);
+    level->primitive = malloc(((size_t)alive + 1) * sizeof *level->primitive);
+    if (!level->wedges || !level->primitive) return -1;
+    uint32_t n = 0;
+    for (uint32_t f = 0; f < s->nf; ++f) {
+        if (!s->face_alive[f]) continue;
+        memcpy(level->wedges + 3 * (size_t)n, s->corner_wedge + 3 * (size_t)f, 3 * sizeof *level->wedges);
+        level->primitive[n++] = s->w->triangle_primitive[f];
+    }
+    return 0;
+}
+
+int simplify_mesh(const weld_result *w, const int64_t *primitive_material, const simplify_options *options,
+                  simplify_result *out, lp_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (options->level_count > SIMPLIFY_MAX_LEVELS)
+        return lp_fail(err, LP_USAGE, "at most %d levels", SIMPLIFY_MAX_LEVELS);
+    sim *s = calloc(1, sizeof *s);
+    ranked *ranks = NULL;
+    uint8_t *done = NULL;
+    candidate *batch = NULL;
+    int rc = LP_OK;
+    if (!s) return lp_fail(err, LP_INVALID, "out of memory");
+    out->vertex_death = malloc((size_t)w->vertex_count + 1);
+    ranks = malloc(((size_t)w->vertex_count + 1) * sizeof *ranks);
+    done = malloc((size_t)w->vertex_count + 1);
+    batch = calloc(BATCH_SIZE, sizeof *batch);
+    if (!out->vertex_death || !ranks || !done || !batch || sim_init(s, w, primitive_material, options)) {
+        rc = lp_fail(err, LP_INVALID, "out of memory for a mesh of %u triangles", w->triangle_count);
+        goto done;
+    }
+    s->death = out->vertex_death;
+    memset(s->death, (int)(options->level_count + 1), w->vertex_count);
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t v = 0; v < w->vertex_count; ++v)
+        for (int k = 0; k < 3; ++k) {
+            double x = w->positions[3 * (size_t)v + k];
+            if (x < lo[k]) lo[k] = x;
+            if (x > hi[k]) hi[k] = x;
+        }
+    double d2 = 0.0;
+    for (int k = 0; k < 3 && w->vertex_count; ++k) d2 += (hi[k] - lo[k]) * (hi[k] - lo[k]);
+    out->diagonal = sqrt(d2);
+    out->level_count = options->level_count;
+    for (uint32_t k = 0; k < options->level_count; ++k) {
+        simplify_level *level = &out->levels[k];
+        double t0 = now_seconds();
+        s->level = k;
+        s->stats = &level->stats;
+        s->eps = options->fractions[k] * out->diagonal;
+        level->eps = s->eps;
+        memset(s->reject_version, 0xff, (size_t)w->vertex_count * sizeof *s->reject_version);
+        /* a mesh whose diagonal is zero (or eps zero) has nothing to remove */
+        while (s->eps > 0.0 && level->stats.passes < MAX_PASSES) {
+            long commits = run_pass(s, ranks, done, batch);
+            level->stats.passes++;
+            if (commits < 0) {
+                if (s->verify_failed) rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);
+                else rc = lp_fail(err, LP_INVALID, "out of memory while simplifying");
+                goto done;
+            }
+            if (commits == 0) break;
+        }
+        if (s->verify && verify_state(s, NULL, 0, NULL, 0) != 0) {
+            rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);
+            goto done;
+        }
+        if (snapshot_level(s, level)) {
+            rc = lp_fail(err, LP_INVALID, "out of memory");
+            goto done;
+        }
+        level->stats.seconds = now_seconds() - t0;
+    }
+done:
+    if (s) {
+        sim_free(s);
+        free(s);
+    }
+    free(ranks);
+    free(done);
+    free(batch);
+    if (rc) simplify_result_free(out);
+    return rc;
+}
+
+void simplify_result_free(simplify_result *r)
+{
+    for (uint32_t k = 0; k < SIMPLIFY_MAX_LEVELS; ++k) {
+        free(r->levels[k].wedges);
+        free(r->levels[k].primitive);
+    }
+    free(r->vertex_death);
+    memset(r, 0, sizeof *r);
+}

@@ -1,0 +1,83 @@
+/* simplify.h - the certified simplifier: one welded mesh through a ladder of
+ * eps values (DESIGN.md §5, §6).
+ *
+ * Promise. For each level k, every point of the level is within
+ * levels[k].bound of the original mesh (the welded triangles, per material)
+ * and every point of the original is within levels[k].bound of the level:
+ * the two-sided Hausdorff distance, in mesh units, certified by certify.h,
+ * with bound <= eps_k = fraction_k * diagonal. Each level is simplified from
+ * the previous one (its vertices are a subset) and certified against the
+ * original, so errors do not add up. When a collapse cannot be certified it
+ * is not made; a level that removes nothing is simply equal to the previous.
+ *
+ * How. Half-edge collapses u -> v (v keeps its position and attributes, so
+ * nothing is interpolated and all levels can share one vertex buffer), legal
+ * by the vertex kinds of weld.h, the link condition, a degree floor and the
+ * flip guard; ordered by a position quadric; evaluated in batches whose
+ * neighbourhoods are disjoint, certified in parallel and committed in a fixed
+ * order, so the result does not depend on the thread count. A rejected
+ * candidate is retried only after its neighbourhood changes. */
+#ifndef LODPIPE_SIMPLIFY_H
+#define LODPIPE_SIMPLIFY_H
+
+#include <stdint.h>
+
+#include "status.h"
+#include "weld.h"
+
+#define SIMPLIFY_MAX_LEVELS 16
+
+typedef struct simplify_options {
+    const double *fractions;  /* eps_k / diagonal, increasing, level_count of them */
+    uint32_t level_count;
+    uint32_t threads;         /* 0: one per online core */
+    double flip_cos;          /* reject when a changed face's normal turns to cos <= this (0.25) */
+    int verify;               /* re-check the invariants after every commit (slow) */
+} simplify_options;
+
+enum {
+    SIMPLIFY_REJECT_KIND,     /* vertex kind or edge type forbids it */
+    SIMPLIFY_REJECT_LINK,     /* link condition or degree floor */
+    SIMPLIFY_REJECT_FLIP,     /* a face would turn too far or become degenerate */
+    SIMPLIFY_REJECT_COVER,    /* (b): an original would not stay within eps */
+    SIMPLIFY_REJECT_FACE,     /* (a): a new face would leave eps of the original */
+    SIMPLIFY_REJECT_CONFLICT, /* an earlier commit of the batch changed its data: retried */
+    SIMPLIFY_REJECT_COUNT
+};
+
+typedef struct simplify_stats {
+    uint64_t candidates;      /* vertices evaluated */
+    uint64_t attempts;        /* (u, v) pairs evaluated */
+    uint64_t commits;
+    uint64_t rejected[SIMPLIFY_REJECT_COUNT];
+    uint32_t passes, batches;
+    double seconds_select, seconds_certify, seconds_commit, seconds;
+} simplify_stats;
+
+typedef struct simplify_level {
+    double eps;                 /* absolute */
+    double bound;               /* certified two-sided bound, <= eps */
+    uint32_t triangle_count;
+    uint32_t *wedges;           /* 3 weld wedges per triangle */
+    uint32_t *primitive;        /* per triangle: index into the mesh's primitives */
+    simplify_stats stats;
+} simplify_level;
+
+typedef struct simplify_result {
+    double diagonal;
+    uint32_t level_count;
+    simplify_level levels[SIMPLIFY_MAX_LEVELS];
+    /* per weld position vertex: the first level it is absent from (1-based),
+     * or level_count + 1 if it survives every level */
+    uint8_t *vertex_death;
+} simplify_result;
+
+/* primitive_material[p]: the material of the mesh's primitive p (-1: none);
+ * faces are certified only against original triangles of their material.
+ * Returns LP_OK, LP_INVALID (out of memory) or LP_PROMISE (the invariant
+ * checker found a broken invariant: a bug, reported rather than written). */
+int simplify_mesh(const weld_result *w, const int64_t *primitive_material, const simplify_options *options,
+                  simplify_result *out, lp_error *err);
+void simplify_result_free(simplify_result *r);
+
+#endif
