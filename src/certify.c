@@ -71,6 +71,22 @@ void cert_face_normal(cert_tri *f)
     f->n[0] = n.x;
     f->n[1] = n.y;
     f->n[2] = n.z;
+    for (int k = 0; k < 3; ++k) {
+        f->lo[k] = fmin(f->p[0][k], fmin(f->p[1][k], f->p[2][k]));
+        f->hi[k] = fmax(f->p[0][k], fmax(f->p[1][k], f->p[2][k]));
+    }
+}
+
+/* Squared distance from p to the box of f: a lower bound of d(p, f)^2. */
+static double box_distance2(const cert_tri *f, const vec3d *p)
+{
+    const double q[3] = {p->x, p->y, p->z};
+    double d2 = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        double d = q[k] < f->lo[k] ? f->lo[k] - q[k] : (q[k] > f->hi[k] ? q[k] - f->hi[k] : 0.0);
+        d2 += d * d;
+    }
+    return d2;
 }
 
 /* ---- (a): a face of the level against the original -------------------------- */
@@ -168,6 +184,8 @@ typedef struct cover_state {
     uint32_t t;
     const cert_tri *faces;
     uint32_t count;
+    const uint32_t *first;
+    uint32_t first_count;
     uint32_t *used;
     uint32_t used_count;
     double accept;
@@ -199,42 +217,59 @@ static int use_face(cover_state *s, uint32_t id, double value)
     return 1;
 }
 
+/* The largest corner distance of the piece to f, or INFINITY as soon as one
+ * corner is farther than accept (the box test first). */
+static double corners_within(const cert_tri *f, const vec3d p[3], const vec3d *centre, double radius, double accept)
+{
+    double reach = accept + radius;
+    if (box_distance2(f, centre) > reach * reach) return INFINITY;
+    vec3d tri[3];
+    for (int k = 0; k < 3; ++k) tri[k] = geom_vec3d_from_doubles(f->p[k]);
+    double worst = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        double d2 = geom_point_triangle_distance2(&p[k], &tri[0], &tri[1], &tri[2], NULL);
+        if (!(d2 <= accept * accept)) return INFINITY;
+        if (d2 > worst) worst = d2;
+    }
+    return sqrt(worst);
+}
+
+/* One piece of t: a face that holds all its corners (faces t used before
+ * first, then faces already used for other pieces, then any), else the
+ * Lipschitz test at the ball's centre, else four smaller pieces. */
 static int piece_b(cover_state *s, const vec3d p[3], int depth)
 {
-    /* Prefer a face already used (keeps the registration small), then the
-     * tightest one. */
-    double best_used = INFINITY, best_any = INFINITY;
-    uint32_t id_used = 0, id_any = 0;
     vec3d c;
     double r;
     geom_triangle_enclosing_ball(&p[0], &p[1], &p[2], &c, &r);
-    double best_centre = INFINITY;
-    uint32_t id_centre = 0;
+    for (uint32_t i = 0; i < s->first_count; ++i) {
+        const cert_tri *f = &s->faces[s->first[i]];
+        if (!face_may_witness(s, f)) continue;
+        double m = corners_within(f, p, &c, r, s->accept);
+        if (m <= s->accept && use_face(s, f->id, m)) return 1;
+    }
     for (uint32_t i = 0; i < s->count; ++i) {
         const cert_tri *f = &s->faces[i];
-        if (!face_may_witness(s, f)) continue;
+        if ((s->used_count == CERT_MAX_WITNESSES && !already_used(s, f->id)) || !face_may_witness(s, f)) continue;
+        double m = corners_within(f, p, &c, r, s->accept);
+        if (m <= s->accept && use_face(s, f->id, m)) return 1;
+    }
+    double best = INFINITY;
+    uint32_t best_id = 0;
+    for (uint32_t i = 0; i < s->count; ++i) {
+        const cert_tri *f = &s->faces[i];
+        if (!face_may_witness(s, f) || box_distance2(f, &c) >= best * best) continue;
         vec3d tri[3];
         for (int k = 0; k < 3; ++k) tri[k] = geom_vec3d_from_doubles(f->p[k]);
-        double m = max_corner_distance(p, tri);
-        if (m < best_any) {
-            best_any = m;
-            id_any = f->id;
-        }
-        if (m < best_used && already_used(s, f->id)) {
-            best_used = m;
-            id_used = f->id;
-        }
-        double dc = sqrt(geom_point_triangle_distance2(&c, &tri[0], &tri[1], &tri[2], NULL));
-        if (dc < best_centre) {
-            best_centre = dc;
-            id_centre = f->id;
+        double d = sqrt(geom_point_triangle_distance2(&c, &tri[0], &tri[1], &tri[2], NULL));
+        if (d < best) {
+            best = d;
+            best_id = f->id;
         }
     }
-    if (best_used <= s->accept) return use_face(s, id_used, best_used);
-    if (best_any <= s->accept && use_face(s, id_any, best_any)) return 1;
-    if (best_centre + r <= s->accept && use_face(s, id_centre, best_centre + r)) return 1;
+    if (best + r <= s->accept && use_face(s, best_id, best + r)) return 1;
     /* The centre lies in the piece: if it is not within eps, nothing helps. */
-    if (depth >= CERT_MAX_DEPTH || !(best_centre <= s->accept)) return 0;
+    if (depth >= CERT_MAX_DEPTH || !(best <= s->accept)) return 0;
     vec3d pieces[4][3];
     split4(p, pieces);
     for (int k = 0; k < 4; ++k)
@@ -243,9 +278,10 @@ static int piece_b(cover_state *s, const vec3d p[3], int depth)
 }
 
 int cert_cover(const cert_original *o, uint32_t t, const cert_tri *faces, uint32_t count, double eps,
-               uint32_t used[CERT_MAX_WITNESSES], uint32_t *used_count, double *bound)
+               const uint32_t *first, uint32_t first_count, uint32_t used[CERT_MAX_WITNESSES],
+               uint32_t *used_count, double *bound)
 {
-    cover_state s = {o, t, faces, count, used, 0, eps * (1.0 - CERT_MARGIN), 0.0};
+    cover_state s = {o, t, faces, count, first, first_count, used, 0, eps * (1.0 - CERT_MARGIN), 0.0};
     vec3d p[3];
     triangle_of(o, t, p);
     int ok = piece_b(&s, p, 0);

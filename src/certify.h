@@ -61,12 +61,13 @@ void cert_original_free(cert_original *o);
 typedef struct cert_tri {
     double p[3][3];
     double n[3];
+    double lo[3], hi[3]; /* bounding box of p */
     int32_t material;
     int degenerate;
     uint32_t id;
 } cert_tri;
 
-/* Fills n and degenerate from p. */
+/* Fills n, degenerate and the box from p. */
 void cert_face_normal(cert_tri *f);
 
 /* (a): 1 when F is certified within eps of O, with *bound the largest
@@ -75,8 +76,11 @@ int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bou
 
 /* (b): 1 when original triangle t is certified within eps of the union of
  * faces[0..count-1]; *used receives up to CERT_MAX_WITNESSES distinct face
- * ids (in first-use order), *bound the largest accepted value. 0 otherwise. */
+ * ids (in first-use order), *bound the largest accepted value. 0 otherwise.
+ * first[0..first_count-1] are indices into faces to try before the others
+ * (t's previous witnesses: usually one of them still holds). */
 int cert_cover(const cert_original *o, uint32_t t, const cert_tri *faces, uint32_t count, double eps,
-               uint32_t used[CERT_MAX_WITNESSES], uint32_t *used_count, double *bound);
+               const uint32_t *first, uint32_t first_count, uint32_t used[CERT_MAX_WITNESSES],
+               uint32_t *used_count, double *bound);
 
 #endif

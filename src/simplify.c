@@ -30,7 +30,6 @@
 
 #define NONE UINT32_MAX
 #define BATCH_SIZE 512      /* fixed: the result must not depend on the thread count */
-#define BATCH_WINDOW 8192   /* how far a batch looks ahead for independent candidates */
 #define TARGETS_TRIED 3     /* cheapest legal targets tried per candidate */
 #define MAX_CANDIDATE_FACES 384
 #define MAX_PASSES 400
@@ -92,6 +91,7 @@ typedef struct scratch {
     cert_tri *tris;
     size_t tris_cap;
     uint32_t *face_seen, *orig_seen, *vertex_seen; /* stamps, sized nf / nf / nv */
+    uint32_t *face_index; /* where a face sits in cand_faces (valid while face_seen is current) */
     uint32_t stamp;
     /* results of the candidates this thread evaluated */
     u32vec out_u32;
@@ -119,7 +119,7 @@ typedef struct sim {
     uint32_t *vertex_first;
     uint8_t *vertex_alive;
     uint32_t *version, *reject_version;
-    uint32_t *vertex_stamp, *orig_stamp;
+    uint32_t *vertex_stamp, *vertex_read_stamp, *orig_stamp; /* batch reservations */
     uint32_t batch_stamp;
     quadric *quadrics;
     double origin[3];
@@ -283,7 +283,9 @@ static int add_candidate_face(const sim *s, scratch *sc, uint32_t f, uint32_t u,
     if (sc->face_seen[f] == sc->stamp || !s->face_alive[f]) return 0;
     if (face_has(s, f, u) && face_has(s, f, v)) return 0; /* removed by the collapse */
     sc->face_seen[f] = sc->stamp;
+    sc->face_index[f] = NONE;
     if (sc->cand_faces.size >= MAX_CANDIDATE_FACES) return 0;
+    sc->face_index[f] = (uint32_t)sc->cand_faces.size;
     return u32_push(&sc->cand_faces, f);
 }
 
@@ -387,9 +389,14 @@ static int certify_collapse(const sim *s, scratch *sc, candidate *c, uint32_t u,
     const size_t u32_start = sc->out_u32.size, f64_start = sc->out_f64.size;
     /* (b) first: the originals must stay covered */
     for (size_t i = 0; i < sc->recheck.size; ++i) {
-        uint32_t t = sc->recheck.data[i], used[CERT_MAX_WITNESSES], n = 0;
+        uint32_t t = sc->recheck.data[i], used[CERT_MAX_WITNESSES], n = 0, first[REGISTRY_SLOTS], nfirst = 0;
+        for (uint32_t k = 0; k < REGISTRY_SLOTS; ++k) {
+            uint32_t f = s->reg.slot_face[t * REGISTRY_SLOTS + k];
+            if (f != REGISTRY_NONE && sc->face_seen[f] == sc->stamp && sc->face_index[f] != NONE)
+                first[nfirst++] = sc->face_index[f];
+        }
         double bound;
-        if (!cert_cover(&s->orig, t, sc->tris, (uint32_t)sc->cand_faces.size, eps, used, &n, &bound)) {
+        if (!cert_cover(&s->orig, t, sc->tris, (uint32_t)sc->cand_faces.size, eps, first, nfirst, used, &n, &bound)) {
             sc->out_u32.size = u32_start;
             sc->out_f64.size = f64_start;
             c->reason = SIMPLIFY_REJECT_COVER;
@@ -661,7 +668,7 @@ static int verify_state(sim *s, const uint32_t *originals, size_t original_count
         }
         double bound;
         uint32_t got;
-        if (!cert_cover(&s->orig, t, sc->tris, n, s->eps, used, &got, &bound) ||
+        if (!cert_cover(&s->orig, t, sc->tris, n, s->eps, NULL, 0, used, &got, &bound) ||
             bound > s->orig_bound[t] * (1 + 1e-12) + 1e-300) {
             snprintf(s->verify_msg, sizeof s->verify_msg,
                      "original %u is not covered by its registered faces within its recorded bound", t);
@@ -743,18 +750,20 @@ static size_t collect_candidates(sim *s, ranked *out)
     return n;
 }
 
-/* The vertices a candidate's evaluation may read or its commit may write:
- * everything within three edges of u. Returns 1 and reserves them when none
- * is reserved by the batch already. */
+/* Reserves a candidate's neighbourhood in the current batch. Its evaluation
+ * reads the faces around every vertex within two edges of u (R); its commit
+ * writes the faces around u and the lists and quadric of one neighbour, all
+ * incident to {u} + N(u) (W). Two candidates are independent when neither's
+ * W meets the other's R; registrations are checked at commit (orig_stamp).
+ * Returns 1 and marks the sets, or 0 when the candidate must wait. */
 static int reserve_footprint(sim *s, uint32_t u)
 {
     scratch *sc = &s->serial;
     sc->ring.size = 0;
-    if (u32_push(&sc->ring, u)) return sc->oom = 1, 0;
-    if (next_stamp(sc)) return 0;
+    if (next_stamp(sc) || u32_push(&sc->ring, u)) return sc->oom = 1, 0;
     sc->vertex_seen[u] = sc->stamp;
-    size_t begin = 0;
-    for (int depth = 0; depth < 3; ++depth) {
+    size_t begin = 0, one_ring_end = 1;
+    for (int depth = 0; depth < 2; ++depth) {
         size_t end = sc->ring.size;
         for (size_t i = begin; i < end; ++i) {
             uint32_t x = sc->ring.data[i];
@@ -769,64 +778,93 @@ static int reserve_footprint(sim *s, uint32_t u)
             }
         }
         begin = end;
+        if (depth == 0) one_ring_end = sc->ring.size;
     }
-    for (size_t i = 0; i < sc->ring.size; ++i)
-        if (s->vertex_stamp[sc->ring.data[i]] == s->batch_stamp) return 0;
-    for (size_t i = 0; i < sc->ring.size; ++i) s->vertex_stamp[sc->ring.data[i]] = s->batch_stamp;
+    for (size_t i = 0; i < sc->ring.size; ++i) {
+        uint32_t x = sc->ring.data[i];
+        if (s->vertex_stamp[x] == s->batch_stamp) return 0;                     /* R meets a W */
+        if (i < one_ring_end && s->vertex_read_stamp[x] == s->batch_stamp) return 0; /* W meets an R */
+    }
+    for (size_t i = 0; i < sc->ring.size; ++i) {
+        s->vertex_read_stamp[sc->ring.data[i]] = s->batch_stamp;
+        if (i < one_ring_end) s->vertex_stamp[sc->ring.data[i]] = s->batch_stamp;
+    }
     return 1;
 }
 
-/* One pass over the candidates; returns the number of commits, or -1. */
-static long run_pass(sim *s, ranked *ranks, uint8_t *done, candidate *batch)
+static void process_batch(sim *s, candidate *batch, size_t count, long *commits);
+
+/* One sweep over the candidates in cost order, in batches of independent
+ * ones; a candidate that is not independent of its batch waits for the next
+ * pass. Returns the number of commits (+ waiting candidates in *waiting), or
+ * -1 on failure. */
+static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
 {
     simplify_stats *st = s->stats;
     double t0 = now_seconds();
     size_t n = collect_candidates(s, ranks);
     st->seconds_select += now_seconds() - t0;
-    memset(done, 0, n);
-    size_t first = 0;
     long commits = 0;
-    while (first < n) {
-        if (++s->batch_stamp == 0) return -1;
+    size_t count = 0;
+    *waiting = 0;
+    if (++s->batch_stamp == 0) return -1;
+    for (size_t i = 0; i < n; ++i) {
         double t1 = now_seconds();
-        size_t count = 0;
-        for (size_t i = first; i < n && i < first + BATCH_WINDOW && count < BATCH_SIZE; ++i) {
-            if (done[i] || !reserve_footprint(s, ranks[i].u)) continue;
-            done[i] = 1;
-            batch[count].u = ranks[i].u;
-            count++;
-        }
-        if (s->serial.oom) return -1;
-        while (first < n && done[first]) first++;
+        int reserved = reserve_footprint(s, ranks[i].u);
         st->seconds_select += now_seconds() - t1;
-        if (count == 0) break;
-        double t2 = now_seconds();
-        evaluate_batch(s, batch, count);
-        double t3 = now_seconds();
-        st->seconds_certify += t3 - t2;
-        st->batches++;
-        for (uint32_t t = 0; t < s->thread_count; ++t)
-            if (s->scratch[t].oom) return -1;
-        for (size_t i = 0; i < count; ++i) {
-            candidate *c = &batch[i];
-            st->candidates++;
-            st->attempts += c->attempts;
-            if (c->v == NONE) {
-                st->rejected[c->reason]++;
-                s->reject_version[c->u] = s->version[c->u];
-                continue;
-            }
-            if (!commit(s, c)) {
-                if (s->verify_failed || s->serial.oom) return -1;
-                st->rejected[SIMPLIFY_REJECT_CONFLICT]++;
-                continue;
-            }
-            st->commits++;
-            commits++;
+        if (s->serial.oom) return -1;
+        if (!reserved) {
+            (*waiting)++;
+            continue;
         }
-        st->seconds_commit += now_seconds() - t3;
+        batch[count++].u = ranks[i].u;
+        if (count == BATCH_SIZE || i + 1 == n) {
+            process_batch(s, batch, count, &commits);
+            if (commits < 0) return -1;
+            count = 0;
+            if (++s->batch_stamp == 0) return -1;
+        }
     }
+    if (count) process_batch(s, batch, count, &commits);
     return commits;
+}
+
+/* Certifies a batch in parallel, then commits the accepted candidates in
+ * order. Adds to *commits, or sets it to -1 on failure. */
+static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
+{
+    simplify_stats *st = s->stats;
+    double t2 = now_seconds();
+    evaluate_batch(s, batch, count);
+    double t3 = now_seconds();
+    st->seconds_certify += t3 - t2;
+    st->batches++;
+    for (uint32_t t = 0; t < s->thread_count; ++t)
+        if (s->scratch[t].oom) {
+            *commits = -1;
+            return;
+        }
+    for (size_t i = 0; i < count; ++i) {
+        candidate *c = &batch[i];
+        st->candidates++;
+        st->attempts += c->attempts;
+        if (c->v == NONE) {
+            st->rejected[c->reason]++;
+            s->reject_version[c->u] = s->version[c->u];
+            continue;
+        }
+        if (!commit(s, c)) {
+            if (s->verify_failed || s->serial.oom) {
+                *commits = -1;
+                return;
+            }
+            st->rejected[SIMPLIFY_REJECT_CONFLICT]++;
+            continue;
+        }
+        st->commits++;
+        (*commits)++;
+    }
+    st->seconds_commit += now_seconds() - t3;
 }
 
 /* ---- set-up -------------------------------------------------------------------- */
@@ -875,6 +913,7 @@ static void sim_free(sim *s)
     free(s->version);
     free(s->reject_version);
     free(s->vertex_stamp);
+    free(s->vertex_read_stamp);
     free(s->orig_stamp);
     free(s->quadrics);
     registry_free(&s->reg);
@@ -892,6 +931,7 @@ static void sim_free(sim *s)
         free(sc->face_seen);
         free(sc->orig_seen);
         free(sc->vertex_seen);
+        free(sc->face_index);
         free(sc->out_u32.data);
         free(sc->out_f64.data);
     }
@@ -902,7 +942,8 @@ static int scratch_init(scratch *sc, uint32_t nv, uint32_t nf)
     sc->face_seen = calloc((size_t)nf + 1, sizeof *sc->face_seen);
     sc->orig_seen = calloc((size_t)nf + 1, sizeof *sc->orig_seen);
     sc->vertex_seen = calloc((size_t)nv + 1, sizeof *sc->vertex_seen);
-    return sc->face_seen && sc->orig_seen && sc->vertex_seen ? 0 : -1;
+    sc->face_index = calloc((size_t)nf + 1, sizeof *sc->face_index);
+    return sc->face_seen && sc->orig_seen && sc->vertex_seen && sc->face_index ? 0 : -1;
 }
 
 static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_material, const simplify_options *o)
@@ -928,11 +969,12 @@ static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_mater
     s->version = calloc((size_t)nv + 1, sizeof *s->version);
     s->reject_version = malloc(((size_t)nv + 1) * sizeof *s->reject_version);
     s->vertex_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_stamp);
+    s->vertex_read_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_read_stamp);
     s->orig_stamp = calloc((size_t)nf + 1, sizeof *s->orig_stamp);
     s->quadrics = calloc((size_t)nv + 1, sizeof *s->quadrics);
     if (!s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next || !s->face_alive ||
         !s->face_bound || !s->orig_bound || !s->vertex_first || !s->vertex_alive || !s->version ||
-        !s->reject_version || !s->vertex_stamp || !s->orig_stamp || !s->quadrics)
+        !s->reject_version || !s->vertex_stamp || !s->vertex_read_stamp || !s->orig_stamp || !s->quadrics)
         return -1;
     for (uint32_t t = 0; t < s->thread_count; ++t)
         if (scratch_init(&s->scratch[t], nv, nf)) return -1;
@@ -1003,15 +1045,13 @@ int simplify_mesh(const weld_result *w, const int64_t *primitive_material, const
         return lp_fail(err, LP_USAGE, "at most %d levels", SIMPLIFY_MAX_LEVELS);
     sim *s = calloc(1, sizeof *s);
     ranked *ranks = NULL;
-    uint8_t *done = NULL;
     candidate *batch = NULL;
     int rc = LP_OK;
     if (!s) return lp_fail(err, LP_INVALID, "out of memory");
     out->vertex_death = malloc((size_t)w->vertex_count + 1);
     ranks = malloc(((size_t)w->vertex_count + 1) * sizeof *ranks);
-    done = malloc((size_t)w->vertex_count + 1);
     batch = calloc(BATCH_SIZE, sizeof *batch);
-    if (!out->vertex_death || !ranks || !done || !batch || sim_init(s, w, primitive_material, options)) {
+    if (!out->vertex_death || !ranks || !batch || sim_init(s, w, primitive_material, options)) {
         rc = lp_fail(err, LP_INVALID, "out of memory for a mesh of %u triangles", w->triangle_count);
         goto done;
     }
@@ -1038,14 +1078,15 @@ int simplify_mesh(const weld_result *w, const int64_t *primitive_material, const
         memset(s->reject_version, 0xff, (size_t)w->vertex_count * sizeof *s->reject_version);
         /* a mesh whose diagonal is zero (or eps zero) has nothing to remove */
         while (s->eps > 0.0 && level->stats.passes < MAX_PASSES) {
-            long commits = run_pass(s, ranks, done, batch);
+            size_t waiting = 0;
+            long commits = run_pass(s, ranks, batch, &waiting);
             level->stats.passes++;
             if (commits < 0) {
                 if (s->verify_failed) rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);
                 else rc = lp_fail(err, LP_INVALID, "out of memory while simplifying");
                 goto done;
             }
-            if (commits == 0) break;
+            if (commits == 0 && waiting == 0) break;
         }
         if (s->verify && verify_state(s, NULL, 0, NULL, 0) != 0) {
             rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);
@@ -1063,7 +1104,6 @@ done:
         free(s);
     }
     free(ranks);
-    free(done);
     free(batch);
     if (rc) simplify_result_free(out);
     return rc;
