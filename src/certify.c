@@ -174,6 +174,20 @@ int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bou
     vec3d p[3];
     for (int k = 0; k < 3; ++k) p[k] = geom_vec3d_from_doubles(f->p[k]);
     const double accept = eps * (1.0 - CERT_MARGIN);
+    for (int k = 0; k < 3; ++k) {
+        uint32_t v = f->vertex[k];
+        for (uint32_t i = o->vertex_offsets[v]; i < o->vertex_offsets[v + 1]; ++i) {
+            uint32_t t = o->vertex_triangles[i];
+            if (!witness_ok(&filter, t)) continue;
+            vec3d tri[3];
+            triangle_of(o, t, tri);
+            double m = max_corner_distance(p, tri);
+            if (m <= accept) {
+                *bound = m;
+                return 1;
+            }
+        }
+    }
     return piece_a(o, &filter, p, 0, eps, accept, bound);
 }
 

@@ -65,13 +65,16 @@ typedef struct cert_tri {
     int32_t material;
     int degenerate;
     uint32_t id;
+    uint32_t vertex[3]; /* original vertex ids of the corners (a level's vertices are original ones) */
 } cert_tri;
 
 /* Fills n, degenerate and the box from p. */
 void cert_face_normal(cert_tri *f);
 
 /* (a): 1 when F is certified within eps of O, with *bound the largest
- * accepted value; 0 otherwise. A degenerate F is never certified. */
+ * accepted value; 0 otherwise. A degenerate F is never certified. The
+ * original triangles around F's corner vertices are tried as whole-face
+ * witnesses first (cheap, and usually enough at fine levels), then the BVH. */
 int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bound);
 
 /* (b): 1 when original triangle t is certified within eps of the union of

@@ -265,7 +265,8 @@ static void face_after(const sim *s, uint32_t f, uint32_t u, uint32_t v, cert_tr
 {
     for (int k = 0; k < 3; ++k) {
         uint32_t x = s->corner_vertex[3 * f + k];
-        vertex_position(s, x == u ? v : x, t->p[k]);
+        t->vertex[k] = x == u ? v : x;
+        vertex_position(s, t->vertex[k], t->p[k]);
     }
     t->material = s->face_material[f];
     t->id = f;
@@ -361,21 +362,14 @@ static int certify_collapse(const sim *s, scratch *sc, candidate *c, uint32_t u,
                 if (u32_push(&sc->recheck, t)) return sc->oom = 1, 0;
             }
         }
-    /* candidate faces: the new star, v's other faces, then the 2-ring */
+    /* candidate faces: the new star, v's other faces and the faces the
+     * originals used before; the 2-ring only when those are not enough */
     sc->cand_faces.size = 0;
     for (size_t i = 0; i < sc->faces_u.size; ++i)
         if (add_candidate_face(s, sc, sc->faces_u.data[i], u, v)) return sc->oom = 1, 0;
     for (size_t i = 0; i < sc->faces_v.size; ++i)
         if (add_candidate_face(s, sc, sc->faces_v.data[i], u, v)) return sc->oom = 1, 0;
-    size_t ring_faces = sc->cand_faces.size;
-    for (size_t i = 0; i < ring_faces; ++i) {
-        uint32_t f = sc->cand_faces.data[i];
-        for (int k = 0; k < 3; ++k) {
-            uint32_t x = s->corner_vertex[3 * f + k];
-            for (uint32_t cc = s->vertex_first[x]; cc != NONE; cc = s->corner_next[cc])
-                if (s->corner_vertex[cc] == x && add_candidate_face(s, sc, cc / 3, u, v)) return sc->oom = 1, 0;
-        }
-    }
+    const size_t star_faces = sc->cand_faces.size;
     for (size_t i = 0; i < sc->recheck.size; ++i) {
         uint32_t t = sc->recheck.data[i];
         for (uint32_t k = 0; k < REGISTRY_SLOTS; ++k) {
@@ -383,24 +377,42 @@ static int certify_collapse(const sim *s, scratch *sc, candidate *c, uint32_t u,
             if (f != REGISTRY_NONE && add_candidate_face(s, sc, f, u, v)) return sc->oom = 1, 0;
         }
     }
-    if (grow((void **)&sc->tris, &sc->tris_cap, sc->cand_faces.size + 1, sizeof *sc->tris)) return sc->oom = 1, 0;
-    for (size_t i = 0; i < sc->cand_faces.size; ++i) face_after(s, sc->cand_faces.data[i], u, v, &sc->tris[i]);
-
+    size_t prepared = 0;
+    int ring_added = 0;
     const size_t u32_start = sc->out_u32.size, f64_start = sc->out_f64.size;
     /* (b) first: the originals must stay covered */
     for (size_t i = 0; i < sc->recheck.size; ++i) {
         uint32_t t = sc->recheck.data[i], used[CERT_MAX_WITNESSES], n = 0, first[REGISTRY_SLOTS], nfirst = 0;
-        for (uint32_t k = 0; k < REGISTRY_SLOTS; ++k) {
-            uint32_t f = s->reg.slot_face[t * REGISTRY_SLOTS + k];
-            if (f != REGISTRY_NONE && sc->face_seen[f] == sc->stamp && sc->face_index[f] != NONE)
-                first[nfirst++] = sc->face_index[f];
-        }
         double bound;
-        if (!cert_cover(&s->orig, t, sc->tris, (uint32_t)sc->cand_faces.size, eps, first, nfirst, used, &n, &bound)) {
-            sc->out_u32.size = u32_start;
-            sc->out_f64.size = f64_start;
-            c->reason = SIMPLIFY_REJECT_COVER;
-            return 0;
+        for (;;) {
+            if (grow((void **)&sc->tris, &sc->tris_cap, sc->cand_faces.size + 1, sizeof *sc->tris))
+                return sc->oom = 1, 0;
+            for (; prepared < sc->cand_faces.size; ++prepared)
+                face_after(s, sc->cand_faces.data[prepared], u, v, &sc->tris[prepared]);
+            nfirst = 0;
+            for (uint32_t k = 0; k < REGISTRY_SLOTS; ++k) {
+                uint32_t f = s->reg.slot_face[t * REGISTRY_SLOTS + k];
+                if (f != REGISTRY_NONE && sc->face_seen[f] == sc->stamp && sc->face_index[f] != NONE)
+                    first[nfirst++] = sc->face_index[f];
+            }
+            if (cert_cover(&s->orig, t, sc->tris, (uint32_t)sc->cand_faces.size, eps, first, nfirst, used, &n, &bound))
+                break;
+            if (ring_added) {
+                sc->out_u32.size = u32_start;
+                sc->out_f64.size = f64_start;
+                c->reason = SIMPLIFY_REJECT_COVER;
+                return 0;
+            }
+            /* widen to the 2-ring around the new star */
+            ring_added = 1;
+            for (size_t j = 0; j < star_faces; ++j) {
+                uint32_t f = sc->cand_faces.data[j];
+                for (int k = 0; k < 3; ++k) {
+                    uint32_t x = s->corner_vertex[3 * f + k];
+                    for (uint32_t cc = s->vertex_first[x]; cc != NONE; cc = s->corner_next[cc])
+                        if (s->corner_vertex[cc] == x && add_candidate_face(s, sc, cc / 3, u, v)) return sc->oom = 1, 0;
+                }
+            }
         }
         if (u32_push(&sc->out_u32, t) || u32_push(&sc->out_u32, n)) return sc->oom = 1, 0;
         for (uint32_t k = 0; k < CERT_MAX_WITNESSES; ++k)
@@ -408,7 +420,6 @@ static int certify_collapse(const sim *s, scratch *sc, candidate *c, uint32_t u,
         if (f64_push(&sc->out_f64, bound)) return sc->oom = 1, 0;
     }
     /* (a): every changed face within eps of the original */
-    const size_t u32_faces = sc->out_u32.size, f64_faces = sc->out_f64.size;
     uint32_t changed = 0;
     for (size_t i = 0; i < sc->faces_u.size; ++i) {
         uint32_t f = sc->faces_u.data[i];
@@ -429,8 +440,6 @@ static int certify_collapse(const sim *s, scratch *sc, candidate *c, uint32_t u,
     c->f64_off = f64_start;
     c->recheck_count = (uint32_t)sc->recheck.size;
     c->changed_count = changed;
-    (void)u32_faces;
-    (void)f64_faces;
     return 1;
 }
 
