@@ -105,9 +105,14 @@ export ASAN_OPTIONS  := detect_leaks=1:abort_on_error=0:halt_on_error=1
 export UBSAN_OPTIONS := halt_on_error=1:print_stacktrace=1
 
 test: deps
-	$(MAKE) all asan
+	$(MAKE) all asan hausdorff $(BUILD)/mesh_check
 	LODPIPE_BIN=$(abspath $(BUILD)/asan/lodpipe) LODPIPE_BUILD=$(abspath $(BUILD)) \
 	LODPIPE_SHARED=$(SHARED) node --test --test-concurrency=2 tests/
+
+# The independent topology oracle (OpenMesh), used by tests/simplify.test.mjs.
+$(BUILD)/mesh_check: tests/tools/mesh_check.cpp
+	@mkdir -p $(BUILD)
+	$(CXX) -std=c++17 -O2 $< -lOpenMeshCore -o $@
 
 # The independent Hausdorff measure (../shared/tools/hausdorff, CGAL), built from a
 # copy so the shared folder stays read-only.

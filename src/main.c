@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <unistd.h>
 
 #include "output.h"
 #include "scene.h"
@@ -306,7 +307,7 @@ static int cmd_simplify(const cli *c)
             }
             fprintf(j, "]}");
             first = 0;
-            if (!c->quiet)
+            if (!c->quiet && isatty(STDERR_FILENO))
                 for (uint32_t k = 0; k < r.level_count; ++k)
                     fprintf(stderr, "lodpipe: %s: mesh %u level %u: %u -> %u triangles, bound %.4g%% of diagonal (%.2f s)\n",
                             in, m, k + 1, w.triangle_count, r.levels[k].triangle_count,

@@ -390,7 +390,11 @@ struct gltf_doc {
     std::string path, dir;
     tinygltf::Model model; // owns the loaded buffer and image bytes
     std::vector<ViewBytes> views; // one per bufferViews[] entry, same order
-    std::set<size_t> dropped_if_unused; // Draco streams, dead after decoding
+    // Views something pointed at when the file was read: one of them that
+    // nothing points at any more (a decoded Draco stream, vertex data that
+    // was rewritten elsewhere) is dropped on writing; views the input itself
+    // left unused are kept, as everything else is.
+    std::vector<uint8_t> referenced_at_load;
     std::map<size_t, std::vector<uint8_t>> external_images; // image index -> file bytes
 
     // C records, built after loading
@@ -772,7 +776,6 @@ void decode_draco_primitive(gltf_doc *doc, ojson &prim, const std::string &path)
         }
         acc.erase("byteOffset");
     }
-    doc->dropped_if_unused.insert(size_t(v));
     erase_ext(prim, kDraco);
 }
 
@@ -877,6 +880,8 @@ void build_records(gltf_doc *doc)
     for (auto &n : array_of(root, "extensionsRequired")) doc->ext_required.push_back(n.get<std::string>());
 }
 
+void mark_referenced_views(gltf_doc *doc);
+
 void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
 {
     const uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
@@ -912,6 +917,7 @@ void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
     }
     load_with_tinygltf(doc, doc->json, glb, bin, bin_size);
     resolve_views(doc);
+    mark_referenced_views(doc);
     decode_compression(doc);
     build_records(doc);
 }
@@ -1106,6 +1112,87 @@ extern "C" int gltf_set_json(gltf_doc *doc, const char *pointer, const char *jso
     }
 }
 
+extern "C" int gltf_remove_json(gltf_doc *doc, const char *pointer)
+{
+    try {
+        ojson::json_pointer ptr(pointer);
+        if (ptr.empty() || !doc->json.contains(ptr)) return -1;
+        ojson &parent = doc->json[ptr.parent_pointer()];
+        const std::string key = ptr.back();
+        if (parent.is_object()) parent.erase(key);
+        else if (parent.is_array()) parent.erase(size_t(std::stoul(key)));
+        else return -1;
+        return 0;
+    } catch (...) {
+        return -1;
+    }
+}
+
+extern "C" int gltf_copy_json(gltf_doc *doc, const char *from, const char *to)
+{
+    try {
+        ojson::json_pointer src(from);
+        if (!doc->json.contains(src)) return -1;
+        ojson value = doc->json[src];
+        doc->json[ojson::json_pointer(to)] = std::move(value);
+        return 0;
+    } catch (...) {
+        return -1;
+    }
+}
+
+extern "C" char *gltf_get_json(const gltf_doc *doc, const char *pointer)
+{
+    try {
+        ojson::json_pointer ptr(pointer);
+        if (!doc->json.contains(ptr)) return nullptr;
+        return strdup(doc->json[ptr].dump().c_str());
+    } catch (...) {
+        return nullptr;
+    }
+}
+
+extern "C" size_t gltf_accessor_refs(const gltf_doc *doc, size_t index)
+{
+    size_t refs = 0;
+    auto count = [&](const ojson &v) {
+        if (is_uint(v) && v.get<uint64_t>() == index) refs++;
+    };
+    for (auto &mesh : array_of(doc->json, "meshes"))
+        for (auto &prim : array_of(mesh, "primitives")) {
+            if (prim.contains("indices")) count(prim["indices"]);
+            if (prim.contains("attributes"))
+                for (auto &a : prim["attributes"]) count(a);
+            for (auto &t : array_of(prim, "targets"))
+                for (auto &a : t) count(a);
+        }
+    for (auto &skin : array_of(doc->json, "skins"))
+        if (skin.contains("inverseBindMatrices")) count(skin["inverseBindMatrices"]);
+    for (auto &anim : array_of(doc->json, "animations"))
+        for (auto &sampler : array_of(anim, "samplers")) {
+            if (sampler.contains("input")) count(sampler["input"]);
+            if (sampler.contains("output")) count(sampler["output"]);
+        }
+    std::function<void(const ojson &, bool)> walk = [&](const ojson &o, bool in_ext) {
+        if (o.is_object()) {
+            for (auto it = o.begin(); it != o.end(); ++it) {
+                if (it.key() == "extras") continue;
+                if (in_ext && (it.key() == "accessor" || it.key() == "attributes")) {
+                    if (it.value().is_object())
+                        for (auto &a : it.value()) count(a);
+                    else
+                        count(it.value());
+                }
+                walk(it.value(), in_ext || it.key() == "extensions");
+            }
+        } else if (o.is_array()) {
+            for (auto &e : o) walk(e, in_ext);
+        }
+    };
+    walk(doc->json, false);
+    return refs;
+}
+
 extern "C" void gltf_use_extension(gltf_doc *doc, const char *name, int required)
 {
     for (const char *list : {"extensionsUsed", "extensionsRequired"}) {
@@ -1157,6 +1244,18 @@ template <typename F> void for_each_view_ref(ojson &root, F &&f)
 
 std::vector<uint8_t> bytes_of(const std::string &s) { return std::vector<uint8_t>(s.begin(), s.end()); }
 
+} // namespace
+
+namespace {
+void mark_referenced_views(gltf_doc *doc)
+{
+    doc->referenced_at_load.assign(doc->views.size(), 0);
+    for_each_view_ref(doc->json, [&](ojson &ref) {
+        uint64_t v = ref.get<uint64_t>();
+        if (v < doc->referenced_at_load.size()) doc->referenced_at_load[v] = 1;
+    });
+}
+
 void add_file(std::vector<gltf_out_file> &files, const std::string &name, const std::vector<uint8_t> &bytes)
 {
     gltf_out_file f{};
@@ -1190,7 +1289,7 @@ void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<glt
     std::vector<uint8_t> bin;
     ojson views = ojson::array();
     for (size_t v = 0; v < doc->views.size(); ++v) {
-        if (!used[v] && doc->dropped_if_unused.count(v)) continue;
+        if (!used[v] && v < doc->referenced_at_load.size() && doc->referenced_at_load[v]) continue;
         ojson view = doc->json["bufferViews"][v];
         while (bin.size() % 4) bin.push_back(0);
         view["buffer"] = 0;

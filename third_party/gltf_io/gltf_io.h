@@ -143,6 +143,18 @@ int64_t gltf_append_json(gltf_doc *doc, const char *array, const char *json);
 /* Sets the value at the JSON pointer (RFC 6901, e.g. "/nodes/3/extensions/MSFT_lod")
  * to `json`, creating missing objects on the way. Returns 0, or -1. */
 int gltf_set_json(gltf_doc *doc, const char *pointer, const char *json);
+/* Removes the value at the JSON pointer (0), or -1 when there is none. */
+int gltf_remove_json(gltf_doc *doc, const char *pointer);
+/* Copies the value at `from` to `to` (both JSON pointers; `to` may end in
+ * "/-" to append to an array). Returns 0, or -1 when `from` does not exist. */
+int gltf_copy_json(gltf_doc *doc, const char *from, const char *to);
+/* The value at the pointer serialized as JSON text (caller frees), or NULL. */
+char *gltf_get_json(const gltf_doc *doc, const char *pointer);
+/* How many times accessor `index` is referenced: by primitive attributes,
+ * morph targets and indices, skins' inverseBindMatrices, animation sampler
+ * input/output, and any "accessor" inside an extension (e.g. instancing). */
+size_t gltf_accessor_refs(const gltf_doc *doc, size_t index);
+
 /* Adds name to extensionsUsed (and to extensionsRequired when required). */
 void gltf_use_extension(gltf_doc *doc, const char *name, int required);
 
