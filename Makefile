@@ -23,7 +23,7 @@ DEBIAN_TOOLS := g++:g++ make:make python3:python3 node:nodejs npm:npm
 CPPFLAGS_COMMON := -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L -Isrc -Ithird_party
 CFLAGS_COMMON   := -std=c11 -Wall -Wextra -Werror -pthread
 CXXFLAGS_COMMON := -std=c++17 -Wall -Wextra -pthread -I/usr/include/draco -Wno-unused-parameter
-LIBS            := -ldraco -lmeshoptimizer -lm -pthread
+LIBS            := -ldraco -lmeshoptimizer -ltomlplusplus -lm -pthread
 
 OPT      := -O2 -g
 SAN      := -O1 -g -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer

@@ -204,3 +204,59 @@ int accessor_read_indices(const gltf_doc *doc, int64_t index, uint32_t vertex_co
     *count = (uint32_t)acc.count;
     return LP_OK;
 }
+
+int accessor_read_raw(const gltf_doc *doc, int64_t index, uint8_t **out, uint32_t *count, uint32_t *elem_size,
+                      lp_error *err)
+{
+    gltf_accessor acc;
+    *out = NULL;
+    int rc = accessor_header(doc, index, &acc, err);
+    if (rc) return rc;
+    if (acc.is_matrix)
+        return lp_fail(err, LP_INVALID, "accessors[%lld]: a matrix accessor where a vector was expected",
+                       (long long)index);
+    const uint32_t csize = component_size(acc.component_type);
+    const uint64_t elem = (uint64_t)csize * (uint32_t)acc.components;
+    uint64_t stride = elem;
+    const uint8_t *base = NULL;
+    if (acc.buffer_view >= 0) {
+        gltf_view view;
+        if (gltf_get_view(doc, (size_t)acc.buffer_view, &view) == 0 && view.byte_stride) stride = view.byte_stride;
+        if (stride < elem)
+            return lp_fail(err, LP_INVALID, "accessors[%lld]: byteStride %llu is smaller than an element",
+                           (long long)index, (unsigned long long)stride);
+        base = span_in_view(doc, acc.buffer_view, acc.byte_offset, acc.count, elem, stride, index, "", err);
+        if (!base) return err->code;
+    }
+    uint8_t *bytes = calloc(acc.count ? (size_t)(acc.count * elem) : 1, 1);
+    if (!bytes) return lp_fail(err, LP_INVALID, "accessors[%lld]: out of memory", (long long)index);
+    if (base)
+        for (uint64_t i = 0; i < acc.count; ++i) memcpy(bytes + i * elem, base + i * stride, (size_t)elem);
+    if (acc.has_sparse) {
+        uint32_t isize = component_size(acc.sparse_indices_type);
+        const uint8_t *idx = NULL, *val = NULL;
+        if (!isize || acc.sparse_indices_type == 5120 || acc.sparse_indices_type == 5122 ||
+            acc.sparse_indices_type == 5126 || acc.sparse_count > acc.count)
+            rc = lp_fail(err, LP_INVALID, "accessors[%lld]: invalid sparse substitution", (long long)index);
+        if (!rc) idx = span_in_view(doc, acc.sparse_indices_view, acc.sparse_indices_offset, acc.sparse_count, isize,
+                                    isize, index, "sparse indices: ", err);
+        if (!rc && idx) val = span_in_view(doc, acc.sparse_values_view, acc.sparse_values_offset, acc.sparse_count,
+                                           elem, elem, index, "sparse values: ", err);
+        if (!rc && (!idx || !val)) rc = err->code;
+        for (uint64_t s = 0; !rc && s < acc.sparse_count; ++s) {
+            uint32_t target = decode_index(idx + s * isize, isize);
+            if (target >= acc.count)
+                rc = lp_fail(err, LP_INVALID, "accessors[%lld]: sparse index %u is out of range", (long long)index, target);
+            else
+                memcpy(bytes + (uint64_t)target * elem, val + s * elem, (size_t)elem);
+        }
+        if (rc) {
+            free(bytes);
+            return rc;
+        }
+    }
+    *out = bytes;
+    *count = (uint32_t)acc.count;
+    *elem_size = (uint32_t)elem;
+    return LP_OK;
+}

@@ -29,4 +29,10 @@ int accessor_read_floats(const gltf_doc *doc, int64_t index, float **out, uint32
 int accessor_read_indices(const gltf_doc *doc, int64_t index, uint32_t vertex_count,
                           uint32_t **out, uint32_t *count, lp_error *err);
 
+/* The accessor's elements as raw bytes, sparse substitution applied, tightly
+ * packed (count * elem_size bytes in *out, caller frees): what a rewritten
+ * copy of the accessor needs. Matrices are refused. */
+int accessor_read_raw(const gltf_doc *doc, int64_t index, uint8_t **out, uint32_t *count, uint32_t *elem_size,
+                      lp_error *err);
+
 #endif

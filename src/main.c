@@ -10,6 +10,8 @@
 #include <strings.h>
 #include <unistd.h>
 
+#include "jsonw.h"
+#include "lodchain.h"
 #include "output.h"
 #include "scene.h"
 #include "simplify.h"
@@ -22,6 +24,9 @@ static const char *const kModeNames[7] = {"POINTS", "LINES", "LINE_LOOP", "LINE_
 
 typedef struct cli {
     const char *command;
+    const char *output; /* -o */
+    int json;
+    double pixel_error, viewport_height, fov_y, min_reduction;
     const char *operands[2];
     int operand_count;
     int force;
@@ -36,7 +41,12 @@ static const double kDefaultLevels[] = {0.01, 0.03, 0.07, 0.15};
 
 static void usage(FILE *f)
 {
-    fputs("usage: lodpipe COMMAND [options] ARGS\n"
+    fputs("usage: lodpipe IN -o OUT [options]      the main job: certified LOD chains\n"
+          "       lodpipe COMMAND [options] ARGS\n"
+          "\n"
+          "The main job simplifies every mesh of IN's default scene into levels whose\n"
+          "two-sided Hausdorff distance to the original is certified, and writes them\n"
+          "to OUT (.glb or .gltf) as MSFT_lod chains with switching distances.\n"
           "\n"
           "commands:\n"
           "  inspect FILE        per mesh: primitives, triangles, attributes, instancing\n"
@@ -48,6 +58,11 @@ static void usage(FILE *f)
           "                      welded original, mesh space) and OUTDIR/simplify.json\n"
           "\n"
           "options:\n"
+          "  -o OUT                 the main job's output (.glb or .gltf)\n"
+          "  --pixel-error P        screen error in pixels at the switching distance (1)\n"
+          "  --viewport-height H    viewport height in pixels (1080)\n"
+          "  --fov-y RADIANS        vertical field of view (0.7853981633974483)\n"
+          "  --json                 print a machine-readable summary on stdout\n"
           "  --force                overwrite the input file if OUT names it\n"
           "  --allow-external-uris  accept uris that leave the input's folder\n"
           "  --quiet                no warnings on stderr\n"
@@ -328,6 +343,113 @@ static int cmd_simplify(const cli *c)
     return rc;
 }
 
+/* The main job: every mesh of the default scene through the certified ladder
+ * into an MSFT_lod chain, the document written to OUT all at once. */
+static int cmd_lod(const cli *c)
+{
+    const char *in = c->operands[0], *out = c->output;
+    if (!output_name_ok(out)) {
+        fprintf(stderr, "lodpipe: %s: the output name must end in .glb or .gltf\n", out);
+        return LP_USAGE;
+    }
+    if (!c->force && output_same_file(in, out)) {
+        fprintf(stderr, "lodpipe: %s: refusing to overwrite the input (use --force)\n", out);
+        return LP_USAGE;
+    }
+    scene s;
+    int rc = load(c, in, &s);
+    if (rc) return rc;
+    const int progress = !c->quiet && isatty(STDERR_FILENO);
+    simplify_options opt = {c->levels, c->level_count, c->threads, 0.25, 0};
+    const char *verify = getenv("LODPIPE_VERIFY");
+    opt.verify = verify && strcmp(verify, "0") != 0;
+    lodchain_options chain = {{c->pixel_error, c->viewport_height, c->fov_y}, c->min_reduction};
+    jsonw j = {0};
+    jsonw_raw(&j, "{\"input\":");
+    jsonw_string(&j, in);
+    jsonw_raw(&j, ",\"output\":");
+    jsonw_string(&j, out);
+    jsonw_raw(&j, ",\"meshes\":[");
+    int first = 1;
+    lp_error err = {0, ""};
+    for (uint32_t m = 0; m < s.mesh_count && !rc; ++m) {
+        const scene_mesh *mesh = &s.meshes[m];
+        if (!mesh->instance_count || !mesh->triangle_count) continue;
+        weld_result w;
+        simplify_result r;
+        lodchain_summary sum;
+        memset(&r, 0, sizeof r);
+        memset(&sum, 0, sizeof sum);
+        int64_t *materials = malloc(((size_t)mesh->primitive_count + 1) * sizeof *materials);
+        if (!materials) rc = lp_fail(&err, LP_INVALID, "out of memory");
+        for (uint32_t p = 0; materials && p < mesh->primitive_count; ++p) materials[p] = mesh->primitives[p].material;
+        if (!rc) rc = weld_build(mesh, &w, &err);
+        if (!rc) {
+            rc = simplify_mesh(&w, materials, &opt, &r, &err);
+            if (!rc) rc = lodchain_write(&s, m, &w, &r, &chain, &sum, &err);
+            weld_free(&w);
+        }
+        free(materials);
+        if (rc) {
+            simplify_result_free(&r);
+            break;
+        }
+        if (progress)
+            for (uint32_t k = 0; k < sum.level_count; ++k)
+                fprintf(stderr, "lodpipe: mesh %u \"%s\" level %u: %llu -> %u triangles, error %.4g%% (%.2f s)\n", m,
+                        mesh->name, k + 1, (unsigned long long)mesh->triangle_count, sum.levels[k].triangles,
+                        r.diagonal > 0 ? 100.0 * sum.levels[k].error / r.diagonal : 0.0,
+                        r.levels[sum.levels[k].ladder_level - 1].stats.seconds);
+        if (!c->quiet)
+            for (uint32_t i = 0; i < sum.warning_count && i < 4; ++i)
+                fprintf(stderr, "lodpipe: %s: warning: %s\n", in, sum.warnings[i]);
+        jsonw_printf(&j, "%s{\"mesh\":%u,\"name\":", first ? "" : ",", m);
+        jsonw_string(&j, mesh->name);
+        jsonw_printf(&j, ",\"triangles\":%llu,\"diagonal\":", (unsigned long long)mesh->triangle_count);
+        jsonw_number(&j, r.diagonal);
+        jsonw_printf(&j, ",\"nodes\":%u,\"levels\":[", sum.nodes);
+        for (uint32_t k = 0; k < sum.level_count; ++k) {
+            const lodchain_level *l = &sum.levels[k];
+            jsonw_printf(&j, "%s{\"level\":%u,\"mesh\":%lld,\"triangles\":%u,\"eps\":", k ? "," : "", k + 1,
+                         (long long)l->mesh, l->triangles);
+            jsonw_number(&j, l->eps);
+            jsonw_raw(&j, ",\"error\":");
+            jsonw_number(&j, l->error);
+            jsonw_raw(&j, ",\"error_fraction\":");
+            jsonw_number(&j, r.diagonal > 0 ? l->error / r.diagonal : 0.0);
+            jsonw_raw(&j, ",\"seconds\":");
+            jsonw_number(&j, r.levels[l->ladder_level - 1].stats.seconds);
+            jsonw_raw(&j, "}");
+        }
+        jsonw_raw(&j, "]}");
+        first = 0;
+        simplify_result_free(&r);
+    }
+    jsonw_raw(&j, "]}\n");
+    if (rc) {
+        report(in, &err);
+        jsonw_free(&j);
+        scene_free(&s);
+        return rc;
+    }
+    gltf_out_file *files = NULL;
+    size_t count = 0;
+    char msg[512];
+    rc = gltf_serialize(s.doc, out, &files, &count, msg, sizeof msg);
+    if (rc) {
+        lp_fail(&err, rc, "%s", msg);
+        rc = report(out, &err);
+    } else if ((rc = output_write_all(out, files, count, &err)) != 0) {
+        rc = report(out, &err);
+    }
+    gltf_free_files(files, count);
+    free(files);
+    if (!rc && c->json) fputs(j.failed ? "{}\n" : j.text, stdout);
+    jsonw_free(&j);
+    scene_free(&s);
+    return rc;
+}
+
 /* "1,3,7,15" (percent of the diagonal) -> increasing fractions. */
 static int parse_levels(const char *text, cli *c)
 {
@@ -351,6 +473,10 @@ static int parse(int argc, char **argv, cli *c)
 {
     memset(c, 0, sizeof *c);
     c->level_count = sizeof kDefaultLevels / sizeof kDefaultLevels[0];
+    c->pixel_error = 1.0;
+    c->viewport_height = 1080.0;
+    c->fov_y = 0.7853981633974483;
+    c->min_reduction = 0.10;
     memcpy(c->levels, kDefaultLevels, sizeof kDefaultLevels);
     for (int i = 1; i < argc; ++i) {
         const char *a = argv[i];
@@ -365,6 +491,37 @@ static int parse(int argc, char **argv, cli *c)
                 snprintf(msg, sizeof msg, "--levels %.200s: expected increasing percentages in (0, 100], e.g. 1,3,7,15", argv[i]);
                 return usage_error(msg);
             }
+            continue;
+        }
+        if (strcmp(a, "-o") == 0 || strcmp(a, "--pixel-error") == 0 || strcmp(a, "--viewport-height") == 0 ||
+            strcmp(a, "--fov-y") == 0) {
+            if (i + 1 >= argc) {
+                char msg[300];
+                snprintf(msg, sizeof msg, "%s needs a value", a);
+                return usage_error(msg);
+            }
+            const char *v = argv[++i];
+            if (strcmp(a, "-o") == 0) {
+                c->output = v;
+                continue;
+            }
+            char *end;
+            double x = strtod(v, &end);
+            int bad = *end || end == v || !(x > 0.0);
+            if (strcmp(a, "--fov-y") == 0) bad = bad || !(x < 3.141592653589793);
+            if (bad) {
+                char msg[300];
+                snprintf(msg, sizeof msg, "%s %.100s: expected a positive number%s", a, v,
+                         strcmp(a, "--fov-y") == 0 ? " below pi (radians)" : "");
+                return usage_error(msg);
+            }
+            if (strcmp(a, "--pixel-error") == 0) c->pixel_error = x;
+            else if (strcmp(a, "--viewport-height") == 0) c->viewport_height = x;
+            else c->fov_y = x;
+            continue;
+        }
+        if (strcmp(a, "--json") == 0) {
+            c->json = 1;
             continue;
         }
         if (strcmp(a, "--threads") == 0) {
@@ -409,6 +566,11 @@ int main(int argc, char **argv)
     int rc = parse(argc, argv, &c);
     if (rc) return rc;
     if (!c.command) return usage_error("no command given");
+    if (c.output) { /* the main job: lodpipe IN -o OUT */
+        if (c.operand_count != 0) return usage_error("the main job takes one input: lodpipe IN -o OUT");
+        c.operands[0] = c.command;
+        return cmd_lod(&c);
+    }
     if (strcmp(c.command, "inspect") == 0) {
         if (c.operand_count != 1) return usage_error("inspect needs exactly one FILE");
         return cmd_inspect(&c);

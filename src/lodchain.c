@@ -1,0 +1,429 @@
+/* lodchain.c - see lodchain.h. */
+#include "lodchain.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "accessor.h"
+#include "jsonw.h"
+
+static void warn(lodchain_summary *out, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void warn(lodchain_summary *out, const char *fmt, ...)
+{
+    if (out->warning_count < sizeof out->warnings / sizeof out->warnings[0]) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(out->warnings[out->warning_count], sizeof out->warnings[0], fmt, ap);
+        va_end(ap);
+    }
+    out->warning_count++;
+}
+
+/* Levels worth writing: not empty, and removing at least min_reduction of the
+ * previous kept level's triangles. */
+static uint32_t keep_levels(const weld_result *w, const simplify_result *r, double min_reduction, uint32_t *kept)
+{
+    uint32_t n = 0, previous = w->triangle_count;
+    for (uint32_t k = 0; k < r->level_count; ++k) {
+        uint32_t t = r->levels[k].triangle_count;
+        if (t == 0 || (double)t > (1.0 - min_reduction) * previous) continue;
+        kept[n++] = k;
+        previous = t;
+    }
+    return n;
+}
+
+/* ---- vertex order ------------------------------------------------------------ */
+
+typedef struct order_key {
+    uint8_t death;
+    uint32_t index;
+} order_key;
+
+static int compare_order(const void *a, const void *b)
+{
+    const order_key *x = a, *y = b;
+    if (x->death != y->death) return x->death > y->death ? -1 : 1; /* last to die first */
+    return x->index < y->index ? -1 : x->index > y->index;
+}
+
+/* new_of_old for primitive p's vertex_count glTF vertices, by death level;
+ * vertices no triangle uses die "at level 0" and go last. */
+static int vertex_order(const weld_result *w, const simplify_result *r, uint32_t p, uint32_t vertex_count,
+                        uint32_t *new_of_old)
+{
+    order_key *keys = calloc((size_t)vertex_count + 1, sizeof *keys);
+    if (!keys) return -1;
+    for (uint32_t i = 0; i < vertex_count; ++i) keys[i].index = i;
+    for (uint32_t x = 0; x < w->wedge_count; ++x)
+        if (w->wedge_primitive[x] == p && w->wedge_index[x] < vertex_count)
+            keys[w->wedge_index[x]].death = r->vertex_death[w->wedge_vertex[x]];
+    qsort(keys, vertex_count, sizeof *keys, compare_order);
+    for (uint32_t i = 0; i < vertex_count; ++i) new_of_old[keys[i].index] = i;
+    free(keys);
+    return 0;
+}
+
+/* ---- accessors ------------------------------------------------------------------ */
+
+static int set_json(gltf_doc *doc, lp_error *err, const char *value, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+static int set_json(gltf_doc *doc, lp_error *err, const char *value, const char *fmt, ...)
+{
+    char pointer[256];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(pointer, sizeof pointer, fmt, ap);
+    va_end(ap);
+    if (gltf_set_json(doc, pointer, value) != 0) return lp_fail(err, LP_INVALID, "cannot set %s", pointer);
+    return LP_OK;
+}
+
+static void remove_json(gltf_doc *doc, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void remove_json(gltf_doc *doc, const char *fmt, ...)
+{
+    char pointer[256];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(pointer, sizeof pointer, fmt, ap);
+    va_end(ap);
+    gltf_remove_json(doc, pointer);
+}
+
+/* Rewrites accessor a's data in the new vertex order, in place: it keeps its
+ * number and JSON and points at a new bufferView (sparse data folded in). */
+static int reorder_accessor(gltf_doc *doc, int64_t a, const uint32_t *new_of_old, uint32_t vertex_count,
+                            lp_error *err)
+{
+    uint8_t *raw;
+    uint32_t count, elem;
+    int rc = accessor_read_raw(doc, a, &raw, &count, &elem, err);
+    if (rc) return rc;
+    if (count != vertex_count) {
+        free(raw);
+        return lp_fail(err, LP_INVALID, "accessors[%lld] has %u elements, not %u", (long long)a, count, vertex_count);
+    }
+    const uint32_t stride = (elem + 3u) & ~3u; /* vertex data stays 4-byte aligned */
+    uint8_t *out = calloc((size_t)count * stride + 1, 1);
+    if (!out) {
+        free(raw);
+        return lp_fail(err, LP_INVALID, "out of memory");
+    }
+    for (uint32_t i = 0; i < count; ++i) memcpy(out + (size_t)new_of_old[i] * stride, raw + (size_t)i * elem, elem);
+    int64_t view = gltf_add_view(doc, out, (size_t)count * stride, stride != elem ? stride : 0, 34962);
+    free(raw);
+    free(out);
+    if (view < 0) return lp_fail(err, LP_INVALID, "out of memory");
+    char value[32];
+    snprintf(value, sizeof value, "%lld", (long long)view);
+    rc = set_json(doc, err, value, "/accessors/%lld/bufferView", (long long)a);
+    remove_json(doc, "/accessors/%lld/byteOffset", (long long)a);
+    remove_json(doc, "/accessors/%lld/sparse", (long long)a);
+    return rc;
+}
+
+/* Writes indices as a new bufferView; returns the view, or -1. The type is
+ * the accessor's (component_type) or, when 0, 16-bit if it fits. */
+static int64_t index_view(gltf_doc *doc, const uint32_t *idx, size_t n, uint32_t vertex_count, int *component_type)
+{
+    if (!*component_type) *component_type = vertex_count <= 65535 ? 5123 : 5125;
+    size_t size = *component_type == 5121 ? 1 : (*component_type == 5123 ? 2 : 4);
+    uint8_t *bytes = calloc(n * size + 4, 1);
+    if (!bytes) return -1;
+    for (size_t i = 0; i < n; ++i) {
+        if (size == 1) bytes[i] = (uint8_t)idx[i];
+        else if (size == 2) {
+            uint16_t v = (uint16_t)idx[i];
+            memcpy(bytes + 2 * i, &v, 2);
+        } else {
+            memcpy(bytes + 4 * i, &idx[i], 4);
+        }
+    }
+    size_t padded = (n * size + 3) & ~(size_t)3;
+    int64_t view = gltf_add_view(doc, bytes, padded, 0, 34963);
+    free(bytes);
+    return view;
+}
+
+/* A new index accessor over idx; returns its number, or -1. */
+static int64_t append_indices(gltf_doc *doc, const uint32_t *idx, size_t n, uint32_t vertex_count)
+{
+    int type = 0;
+    int64_t view = index_view(doc, idx, n, vertex_count, &type);
+    if (view < 0) return -1;
+    char json[160];
+    snprintf(json, sizeof json, "{\"bufferView\":%lld,\"componentType\":%d,\"count\":%zu,\"type\":\"SCALAR\"}",
+             (long long)view, type, n);
+    return gltf_append_json(doc, "accessors", json);
+}
+
+/* ---- LOD0: the original mesh, vertices in death order -------------------------- */
+
+static int exclusive(const gltf_doc *doc, const gltf_primitive *g)
+{
+    if (g->indices >= 0 && gltf_accessor_refs(doc, (size_t)g->indices) != 1) return 0;
+    for (size_t a = 0; a < g->attribute_count; ++a)
+        if (gltf_accessor_refs(doc, (size_t)g->attributes[a].accessor) != 1) return 0;
+    for (size_t t = 0; t < g->target_count; ++t)
+        for (size_t a = 0; a < g->target_attribute_counts[t]; ++a)
+            if (gltf_accessor_refs(doc, (size_t)g->target_attributes[t][a].accessor) != 1) return 0;
+    return 1;
+}
+
+/* Reorders primitive p of mesh m (when nothing else shares its accessors) and
+ * rewrites its own indices to match. new_of_old is the identity otherwise. */
+static int reorder_primitive(scene *s, uint32_t m, uint32_t p, const uint32_t *order, uint32_t *new_of_old,
+                             int *reordered, lp_error *err)
+{
+    const scene_primitive *pr = &s->meshes[m].primitives[p];
+    gltf_primitive g;
+    gltf_get_primitive(s->doc, m, p, &g);
+    *reordered = 0;
+    int changes = 0;
+    for (uint32_t i = 0; i < pr->vertex_count; ++i) changes |= order[i] != i;
+    if (!changes || !exclusive(s->doc, &g)) {
+        for (uint32_t i = 0; i < pr->vertex_count; ++i) new_of_old[i] = i;
+        return LP_OK;
+    }
+    memcpy(new_of_old, order, (size_t)pr->vertex_count * sizeof *new_of_old);
+    int rc = LP_OK;
+    for (size_t a = 0; a < g.attribute_count && !rc; ++a)
+        rc = reorder_accessor(s->doc, g.attributes[a].accessor, new_of_old, pr->vertex_count, err);
+    for (size_t t = 0; t < g.target_count && !rc; ++t)
+        for (size_t a = 0; a < g.target_attribute_counts[t] && !rc; ++a)
+            rc = reorder_accessor(s->doc, g.target_attributes[t][a].accessor, new_of_old, pr->vertex_count, err);
+    if (rc) return rc;
+    /* the primitive's own indices, in its own mode, renumbered */
+    uint32_t *idx = NULL, n = 0;
+    if (g.indices >= 0) {
+        rc = accessor_read_indices(s->doc, g.indices, pr->vertex_count, &idx, &n, err);
+        if (rc) return rc;
+    } else {
+        n = pr->vertex_count;
+        idx = malloc(((size_t)n + 1) * sizeof *idx);
+        if (!idx) return lp_fail(err, LP_INVALID, "out of memory");
+        for (uint32_t i = 0; i < n; ++i) idx[i] = i;
+    }
+    for (uint32_t i = 0; i < n; ++i) idx[i] = new_of_old[idx[i]];
+    char value[32];
+    if (g.indices >= 0) {
+        gltf_accessor acc;
+        gltf_get_accessor(s->doc, (size_t)g.indices, &acc);
+        int type = acc.component_type;
+        int64_t view = index_view(s->doc, idx, n, pr->vertex_count, &type);
+        if (view < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
+        snprintf(value, sizeof value, "%lld", (long long)view);
+        if (!rc) rc = set_json(s->doc, err, value, "/accessors/%lld/bufferView", (long long)g.indices);
+        remove_json(s->doc, "/accessors/%lld/byteOffset", (long long)g.indices);
+        remove_json(s->doc, "/accessors/%lld/sparse", (long long)g.indices);
+    } else {
+        int64_t a = append_indices(s->doc, idx, n, pr->vertex_count);
+        if (a < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
+        snprintf(value, sizeof value, "%lld", (long long)a);
+        if (!rc) rc = set_json(s->doc, err, value, "/meshes/%u/primitives/%u/indices", m, p);
+    }
+    free(idx);
+    *reordered = !rc;
+    return rc;
+}
+
+/* ---- level meshes ---------------------------------------------------------------- */
+
+static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, const simplify_level *level,
+                                uint32_t number, uint32_t *const *new_of_old, lp_error *err)
+{
+    const scene_mesh *mesh = &s->meshes[m];
+    jsonw j = {0};
+    char suffix[32];
+    snprintf(suffix, sizeof suffix, "_LOD%u", number);
+    jsonw_raw(&j, "{\"name\":");
+    size_t name_len = strlen(mesh->name);
+    char *name = malloc(name_len + sizeof suffix);
+    if (name) {
+        memcpy(name, mesh->name, name_len);
+        memcpy(name + name_len, suffix, strlen(suffix) + 1);
+        jsonw_string(&j, name);
+        free(name);
+    }
+    jsonw_raw(&j, ",\"primitives\":[]}");
+    int64_t lod = j.failed ? -1 : gltf_append_json(s->doc, "meshes", j.text);
+    jsonw_free(&j);
+    if (lod < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+    char from[96], to[96];
+    snprintf(from, sizeof from, "/meshes/%u/weights", m);
+    snprintf(to, sizeof to, "/meshes/%lld/weights", (long long)lod);
+    gltf_copy_json(s->doc, from, to);
+    uint32_t written = 0;
+    for (uint32_t p = 0; p < mesh->primitive_count; ++p) {
+        const scene_primitive *pr = &mesh->primitives[p];
+        snprintf(from, sizeof from, "/meshes/%u/primitives/%u", m, p);
+        snprintf(to, sizeof to, "/meshes/%lld/primitives/-", (long long)lod);
+        if (pr->skipped || pr->mode < 4 || pr->triangle_count == 0) { /* passes through */
+            if (gltf_copy_json(s->doc, from, to) != 0) return lp_fail(err, LP_INVALID, "cannot copy %s", from), -1;
+            written++;
+            continue;
+        }
+        size_t n = 0;
+        for (uint32_t t = 0; t < level->triangle_count; ++t) n += level->primitive[t] == p;
+        if (n == 0) continue;
+        uint32_t *idx = malloc(3 * n * sizeof *idx);
+        if (!idx) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+        size_t k = 0;
+        for (uint32_t t = 0; t < level->triangle_count; ++t) {
+            if (level->primitive[t] != p) continue;
+            for (int c = 0; c < 3; ++c) idx[k++] = new_of_old[p][w->wedge_index[level->wedges[3 * (size_t)t + c]]];
+        }
+        int64_t a = append_indices(s->doc, idx, k, pr->vertex_count);
+        free(idx);
+        if (a < 0 || gltf_copy_json(s->doc, from, to) != 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+        char value[32];
+        snprintf(value, sizeof value, "%lld", (long long)a);
+        if (set_json(s->doc, err, value, "/meshes/%lld/primitives/%u/indices", (long long)lod, written)) return -1;
+        remove_json(s->doc, "/meshes/%lld/primitives/%u/mode", (long long)lod, written); /* triangles */
+        written++;
+    }
+    return lod;
+}
+
+/* ---- nodes --------------------------------------------------------------------- */
+
+static int64_t write_lod_node(scene *s, uint32_t node, int64_t lod_mesh, uint32_t number, lp_error *err)
+{
+    jsonw j = {0};
+    char suffix[32];
+    snprintf(suffix, sizeof suffix, "_LOD%u", number);
+    const char *base = s->nodes[node].name;
+    size_t len = strlen(base);
+    char *name = malloc(len + sizeof suffix);
+    if (!name) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+    memcpy(name, base, len);
+    memcpy(name + len, suffix, strlen(suffix) + 1);
+    jsonw_raw(&j, "{\"name\":");
+    jsonw_string(&j, name);
+    free(name);
+    jsonw_printf(&j, ",\"mesh\":%lld}", (long long)lod_mesh);
+    int64_t id = j.failed ? -1 : gltf_append_json(s->doc, "nodes", j.text);
+    jsonw_free(&j);
+    if (id < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+    static const char *const kCopied[] = {"matrix", "translation", "rotation", "scale", "skin", "weights"};
+    for (size_t k = 0; k < sizeof kCopied / sizeof kCopied[0]; ++k) {
+        char from[96], to[96];
+        snprintf(from, sizeof from, "/nodes/%u/%s", node, kCopied[k]);
+        snprintf(to, sizeof to, "/nodes/%lld/%s", (long long)id, kCopied[k]);
+        gltf_copy_json(s->doc, from, to);
+    }
+    return id;
+}
+
+static int annotate_node(scene *s, uint32_t node, uint32_t m, const lodchain_summary *chain, const int64_t *lod_nodes,
+                         const lodchain_options *o, double diagonal, lodchain_summary *out, lp_error *err)
+{
+    const double scale = scene_max_scale(s->nodes[node].world);
+    const double radius = 0.5 * diagonal * scale;
+    jsonw ids = {0}, coverage = {0}, meta = {0};
+    jsonw_raw(&ids, "{\"ids\":[");
+    jsonw_raw(&coverage, "[");
+    jsonw_raw(&meta, "{\"camera\":{\"pixel_error\":");
+    jsonw_number(&meta, o->camera.pixel_error);
+    jsonw_raw(&meta, ",\"viewport_height\":");
+    jsonw_number(&meta, o->camera.viewport_height);
+    jsonw_raw(&meta, ",\"fov_y\":");
+    jsonw_number(&meta, o->camera.fov_y);
+    jsonw_printf(&meta, "},\"levels\":[{\"node\":%u,\"mesh\":%u,\"error\":0,\"error_fraction\":0,\"triangles\":%llu,"
+                        "\"distance\":0,\"screen_coverage\":1}",
+                 node, m, (unsigned long long)s->meshes[m].triangle_count);
+    for (uint32_t k = 0; k < chain->level_count; ++k) {
+        const lodchain_level *l = &chain->levels[k];
+        double d = switching_distance(l->error, scale, &o->camera);
+        double c = switching_coverage(radius, d, &o->camera);
+        jsonw_printf(&ids, "%s%lld", k ? "," : "", (long long)lod_nodes[k]);
+        if (k) jsonw_raw(&coverage, ",");
+        jsonw_number(&coverage, c);
+        jsonw_printf(&meta, ",{\"node\":%lld,\"mesh\":%lld,\"error\":", (long long)lod_nodes[k], (long long)l->mesh);
+        jsonw_number(&meta, l->error);
+        jsonw_raw(&meta, ",\"error_fraction\":");
+        jsonw_number(&meta, diagonal > 0 ? l->error / diagonal : 0.0);
+        jsonw_printf(&meta, ",\"triangles\":%u,\"distance\":", l->triangles);
+        jsonw_number(&meta, d);
+        jsonw_raw(&meta, ",\"screen_coverage\":");
+        jsonw_number(&meta, c);
+        jsonw_raw(&meta, "}");
+    }
+    jsonw_raw(&ids, "]}");
+    jsonw_raw(&coverage, ",");
+    jsonw_number(&coverage, switching_cull_coverage(&o->camera));
+    jsonw_raw(&coverage, "]");
+    jsonw_raw(&meta, "]}");
+    int rc = LP_OK;
+    if (ids.failed || coverage.failed || meta.failed) rc = lp_fail(err, LP_INVALID, "out of memory");
+    if (!rc) rc = set_json(s->doc, err, ids.text, "/nodes/%u/extensions/MSFT_lod", node);
+    if (!rc) {
+        char pointer[96];
+        snprintf(pointer, sizeof pointer, "/nodes/%u/extras/MSFT_screencoverage", node);
+        if (gltf_set_json(s->doc, pointer, coverage.text) != 0 ||
+            (snprintf(pointer, sizeof pointer, "/nodes/%u/extras/lodpipe", node),
+             gltf_set_json(s->doc, pointer, meta.text) != 0))
+            warn(out, "nodes[%u].extras is not an object; switching metadata not written", node);
+    }
+    jsonw_free(&ids);
+    jsonw_free(&coverage);
+    jsonw_free(&meta);
+    return rc;
+}
+
+/* ---- the whole chain --------------------------------------------------------------- */
+
+int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_result *r,
+                   const lodchain_options *o, lodchain_summary *out, lp_error *err)
+{
+    memset(out, 0, sizeof *out);
+    uint32_t kept[SIMPLIFY_MAX_LEVELS];
+    const uint32_t level_count = keep_levels(w, r, o->min_reduction, kept);
+    if (level_count == 0) return LP_OK;
+    const scene_mesh *mesh = &s->meshes[m];
+    uint32_t **new_of_old = calloc(mesh->primitive_count + 1, sizeof *new_of_old);
+    int rc = new_of_old ? LP_OK : lp_fail(err, LP_INVALID, "out of memory");
+    for (uint32_t p = 0; p < mesh->primitive_count && !rc; ++p) {
+        const scene_primitive *pr = &mesh->primitives[p];
+        if (pr->skipped || pr->mode < 4 || pr->triangle_count == 0) continue;
+        uint32_t *order = malloc(((size_t)pr->vertex_count + 1) * sizeof *order);
+        new_of_old[p] = malloc(((size_t)pr->vertex_count + 1) * sizeof *new_of_old[p]);
+        if (!order || !new_of_old[p] || vertex_order(w, r, p, pr->vertex_count, order))
+            rc = lp_fail(err, LP_INVALID, "out of memory");
+        int reordered = 0;
+        if (!rc) rc = reorder_primitive(s, m, p, order, new_of_old[p], &reordered, err);
+        if (!rc && !reordered) out->primitives_not_reordered++;
+        free(order);
+    }
+    for (uint32_t k = 0; k < level_count && !rc; ++k) {
+        const simplify_level *level = &r->levels[kept[k]];
+        int64_t lod = write_level_mesh(s, m, w, level, k + 1, new_of_old, err);
+        if (lod < 0) {
+            rc = err->code ? err->code : LP_INVALID;
+            break;
+        }
+        out->levels[k] = (lodchain_level){kept[k] + 1, lod, level->triangle_count, level->eps, level->bound};
+        out->level_count = k + 1;
+    }
+    for (uint32_t n = 0; n < s->node_count && !rc; ++n) {
+        if (s->nodes[n].mesh != (int64_t)m) continue;
+        if (s->nodes[n].lod_count) {
+            warn(out, "nodes[%u] already has MSFT_lod; left as it is", n);
+            continue;
+        }
+        int64_t lod_nodes[SIMPLIFY_MAX_LEVELS];
+        for (uint32_t k = 0; k < out->level_count && !rc; ++k) {
+            lod_nodes[k] = write_lod_node(s, n, out->levels[k].mesh, k + 1, err);
+            if (lod_nodes[k] < 0) rc = err->code ? err->code : LP_INVALID;
+        }
+        if (!rc) rc = annotate_node(s, n, m, out, lod_nodes, o, r->diagonal, out, err);
+        out->nodes++;
+    }
+    if (!rc && out->nodes) gltf_use_extension(s->doc, "MSFT_lod", 0);
+    for (uint32_t p = 0; new_of_old && p < mesh->primitive_count; ++p) free(new_of_old[p]);
+    free(new_of_old);
+    return rc;
+}

@@ -1,0 +1,57 @@
+/* lodchain.h - a mesh's certified levels written into the glTF document as an
+ * MSFT_lod chain (DESIGN.md §7, §8).
+ *
+ * For one mesh and its simplify_result, lodchain_write edits the document:
+ * - levels are kept in ladder order, dropping a level that is empty or that
+ *   removes less than min_reduction of the previous kept level's triangles;
+ * - each triangle primitive's vertices are reordered by the level at which
+ *   they die (last to die first), so kept level k uses a prefix of the vertex
+ *   buffer; the reorder rewrites the primitive's own vertex accessors in place
+ *   (same accessor numbers, so skins, animations and morph targets keep
+ *   pointing at them) and is skipped for a primitive whose accessors another
+ *   object shares;
+ * - one new mesh per kept level: the same primitives (material, attributes,
+ *   morph targets, extensions: the ORIGINAL vertex accessors) with only a new
+ *   index accessor (16-bit when it fits) holding the level's triangles; points
+ *   and lines primitives are copied as they are;
+ * - every node that uses the mesh gets extensions.MSFT_lod.ids naming one new
+ *   node per level (same transform, skin and morph weights, not in any scene),
+ *   extras.MSFT_screencoverage and extras.lodpipe (README: "Output format").
+ * Nothing else in the document changes. A node that already carries MSFT_lod
+ * is left alone (with a warning). */
+#ifndef LODPIPE_LODCHAIN_H
+#define LODPIPE_LODCHAIN_H
+
+#include <stdint.h>
+
+#include "scene.h"
+#include "simplify.h"
+#include "status.h"
+#include "switching.h"
+#include "weld.h"
+
+typedef struct lodchain_options {
+    switching_camera camera;
+    double min_reduction;
+} lodchain_options;
+
+typedef struct lodchain_level {
+    uint32_t ladder_level; /* 1-based position in the eps ladder */
+    int64_t mesh;          /* new glTF mesh */
+    uint32_t triangles;
+    double eps, error;     /* mesh units */
+} lodchain_level;
+
+typedef struct lodchain_summary {
+    uint32_t level_count; /* kept */
+    lodchain_level levels[SIMPLIFY_MAX_LEVELS];
+    uint32_t nodes;       /* nodes that got MSFT_lod */
+    uint32_t primitives_not_reordered;
+    uint32_t warning_count;
+    char warnings[4][200];
+} lodchain_summary;
+
+int lodchain_write(scene *s, uint32_t mesh, const weld_result *w, const simplify_result *r,
+                   const lodchain_options *options, lodchain_summary *out, lp_error *err);
+
+#endif
