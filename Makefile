@@ -96,8 +96,8 @@ tests/node_modules/.installed: tests/package.json tests/package-lock.json
 run: deps
 	$(MAKE) all
 	@mkdir -p out
-	$(BUILD)/lodpipe inspect assets/default_scene.glb
-	$(BUILD)/lodpipe convert assets/default_scene.glb out/default_scene.glb
+	$(BUILD)/lodpipe assets/default_scene.glb -o out/default_scene.glb
+	$(BUILD)/lodpipe inspect out/default_scene.glb
 	@echo "wrote out/default_scene.glb"
 
 # ---- tests -----------------------------------------------------------------------
