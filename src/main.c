@@ -12,6 +12,7 @@
 
 #include "jsonw.h"
 #include "lodchain.h"
+#include "measure.h"
 #include "output.h"
 #include "scene.h"
 #include "simplify.h"
@@ -53,6 +54,8 @@ static void usage(FILE *f)
           "                      nodes, bounding-box diagonal; LOD chains already present\n"
           "  convert IN OUT      load IN and write it to OUT unchanged (.glb or .gltf by\n"
           "                      OUT's extension); compressed geometry comes out decoded\n"
+          "  check FILE          measure every LOD of FILE against its LOD0 (dense sampling,\n"
+          "                      both directions); exit 3 if one exceeds its recorded error\n"
           "  simplify IN OUTDIR  the certified simplifier alone: for every mesh of the\n"
           "                      default scene, OUTDIR/mesh<K>_level<L>.obj (level 0 = the\n"
           "                      welded original, mesh space) and OUTDIR/simplify.json\n"
@@ -450,6 +453,110 @@ static int cmd_lod(const cli *c)
     return rc;
 }
 
+/* All triangle primitives of a mesh as one triangle set (mesh space). */
+static int flatten_mesh(const scene_mesh *mesh, float **positions, uint32_t **triangles, measure_mesh *out)
+{
+    size_t vertices = 0, tris = 0;
+    for (uint32_t p = 0; p < mesh->primitive_count; ++p)
+        if (!mesh->primitives[p].skipped && mesh->primitives[p].triangle_count) {
+            vertices += mesh->primitives[p].vertex_count;
+            tris += mesh->primitives[p].triangle_count;
+        }
+    *positions = malloc((3 * vertices + 1) * sizeof **positions);
+    *triangles = malloc((3 * tris + 1) * sizeof **triangles);
+    if (!*positions || !*triangles) return -1;
+    size_t v = 0, t = 0;
+    for (uint32_t p = 0; p < mesh->primitive_count; ++p) {
+        const scene_primitive *pr = &mesh->primitives[p];
+        if (pr->skipped || !pr->triangle_count) continue;
+        memcpy(*positions + 3 * v, pr->positions, 3 * (size_t)pr->vertex_count * sizeof(float));
+        for (size_t i = 0; i < 3 * (size_t)pr->triangle_count; ++i) (*triangles)[3 * t + i] = (uint32_t)v + pr->triangles[i];
+        v += pr->vertex_count;
+        t += pr->triangle_count;
+    }
+    *out = (measure_mesh){*positions, (uint32_t)v, *triangles, (uint32_t)t};
+    return 0;
+}
+
+static int recorded_number(const gltf_doc *doc, const char *pointer, double *out)
+{
+    char *text = gltf_get_json(doc, pointer);
+    if (!text) return -1;
+    char *end;
+    *out = strtod(text, &end);
+    int ok = end != text && *end == 0;
+    free(text);
+    return ok ? 0 : -1;
+}
+
+/* lodpipe check FILE: measures every LOD against its LOD0 by dense sampling
+ * and compares with the recorded error; exit 3 when a measured distance
+ * exceeds its record. */
+static int cmd_check(const cli *c)
+{
+    const char *in = c->operands[0];
+    scene s;
+    int rc = load(c, in, &s);
+    if (rc) return rc;
+    int failed = 0, chains = 0;
+    printf("%-6s %-6s %-6s %-10s %-14s %-14s %s\n", "node", "level", "mesh", "triangles", "recorded", "measured", "ok");
+    for (uint32_t n = 0; n < s.node_count && !rc; ++n) {
+        const scene_node *node = &s.nodes[n];
+        if (!node->lod_count || node->mesh < 0) continue;
+        chains++;
+        const scene_mesh *base = &s.meshes[node->mesh];
+        float *bp = NULL, *lp = NULL;
+        uint32_t *bt = NULL, *lt = NULL;
+        measure_mesh a, b;
+        bvh a_tree;
+        memset(&a_tree, 0, sizeof a_tree);
+        if (flatten_mesh(base, &bp, &bt, &a) ||
+            bvh_build(&a_tree, a.positions, a.vertex_count, a.triangles, a.triangle_count) != BVH_OK)
+            rc = LP_INVALID;
+        const double spacing = base->diagonal / 400.0;
+        for (uint32_t k = 0; k < node->lod_count && !rc; ++k) {
+            const scene_node *lod = &s.nodes[node->lod_ids[k]];
+            char pointer[128];
+            double recorded;
+            snprintf(pointer, sizeof pointer, "/nodes/%u/extras/lodpipe/levels/%u/error", n, k + 1);
+            int have = recorded_number(s.doc, pointer, &recorded) == 0;
+            if (lod->mesh < 0) {
+                printf("%-6u %-6u %-6s %-10s %-14s %-14s %s\n", n, k + 1, "-", "-", "-", "-", "no mesh");
+                continue;
+            }
+            free(lp);
+            free(lt);
+            lp = NULL;
+            lt = NULL;
+            if (flatten_mesh(&s.meshes[lod->mesh], &lp, &lt, &b)) {
+                rc = LP_INVALID;
+                break;
+            }
+            double measured = measure_two_sided_with(&a, &a_tree, &b, spacing);
+            int ok = have && measured >= 0 && measured <= recorded * (1 + 1e-9) + 1e-12 * base->diagonal;
+            if (have && !ok) failed = 1;
+            char rec[32] = "-";
+            if (have) snprintf(rec, sizeof rec, "%.8g", recorded);
+            printf("%-6u %-6u %-6lld %-10u %-14s %-14.8g %s\n", n, k + 1, (long long)lod->mesh, b.triangle_count, rec,
+                   measured, !have ? "not recorded" : (ok ? "yes" : "NO: exceeds the recorded error"));
+        }
+        bvh_free(&a_tree);
+        free(bp);
+        free(bt);
+        free(lp);
+        free(lt);
+    }
+    if (rc) fprintf(stderr, "lodpipe: %s: out of memory\n", in);
+    else if (!chains) printf("no LOD chains\n");
+    scene_free(&s);
+    if (rc) return rc;
+    if (failed) {
+        fprintf(stderr, "lodpipe: %s: a measured distance exceeds its recorded error\n", in);
+        return LP_PROMISE;
+    }
+    return LP_OK;
+}
+
 /* "1,3,7,15" (percent of the diagonal) -> increasing fractions. */
 static int parse_levels(const char *text, cli *c)
 {
@@ -578,6 +685,10 @@ int main(int argc, char **argv)
     if (strcmp(c.command, "convert") == 0) {
         if (c.operand_count != 2) return usage_error("convert needs IN and OUT");
         return cmd_convert(&c);
+    }
+    if (strcmp(c.command, "check") == 0) {
+        if (c.operand_count != 1) return usage_error("check needs exactly one FILE");
+        return cmd_check(&c);
     }
     if (strcmp(c.command, "simplify") == 0) {
         if (c.operand_count != 2) return usage_error("simplify needs IN and OUTDIR");

@@ -1,0 +1,31 @@
+/* measure.h - an independent measurement of the distance between two
+ * triangle sets: dense sampling of each side, exact closest-point queries
+ * against the other side's BVH. It certifies nothing: a sampled maximum is a
+ * LOWER bound of the true one-sided Hausdorff distance, which is exactly what a
+ * check needs (a sampled value above a recorded bound proves the bound false).
+ * Used by `lodpipe check`, independently of the certificate's code paths. */
+#ifndef LODPIPE_MEASURE_H
+#define LODPIPE_MEASURE_H
+
+#include <stdint.h>
+
+typedef struct measure_mesh {
+    const float *positions; /* xyz per vertex */
+    uint32_t vertex_count;
+    const uint32_t *triangles; /* 3 per triangle */
+    uint32_t triangle_count;
+} measure_mesh;
+
+/* max over sample points p of A of d(p, B); samples: every vertex and a
+ * barycentric grid on each triangle with spacing at most `spacing`
+ * (at most 64 x 64 per triangle). Returns -1 when B is empty or on failure. */
+double measure_one_sided(const measure_mesh *a, const measure_mesh *b, double spacing);
+
+/* max of both directions. */
+double measure_two_sided(const measure_mesh *a, const measure_mesh *b, double spacing);
+
+/* The same with the BVH of `a` built once for several b (a_tree over a). */
+#include "bvh.h"
+double measure_two_sided_with(const measure_mesh *a, const bvh *a_tree, const measure_mesh *b, double spacing);
+
+#endif
