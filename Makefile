@@ -96,7 +96,7 @@ tests/node_modules/.installed: tests/package.json tests/package-lock.json
 run: deps
 	$(MAKE) all
 	@mkdir -p out
-	$(BUILD)/lodpipe assets/default_scene.glb -o out/default_scene.glb
+	$(BUILD)/lodpipe assets/default_scene.glb -o out/default_scene.glb --config pipeline.toml
 	$(BUILD)/lodpipe inspect out/default_scene.glb
 	@echo "wrote out/default_scene.glb"
 

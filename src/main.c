@@ -10,6 +10,7 @@
 #include <strings.h>
 #include <unistd.h>
 
+#include "config.h"
 #include "jsonw.h"
 #include "lodchain.h"
 #include "measure.h"
@@ -27,18 +28,15 @@ typedef struct cli {
     const char *command;
     const char *output; /* -o */
     int json;
-    double pixel_error, viewport_height, fov_y, min_reduction;
+    const char *config_path;   /* --config */
+    lp_config config;          /* defaults <- --config file <- flags */
     const char *operands[2];
     int operand_count;
     int force;
     int quiet;
     int allow_external_uris;
-    double levels[SIMPLIFY_MAX_LEVELS]; /* fractions of the diagonal */
-    uint32_t level_count;
-    uint32_t threads;
+    double levels[SIMPLIFY_MAX_LEVELS]; /* config.lod.levels as fractions of the diagonal */
 } cli;
-
-static const double kDefaultLevels[] = {0.01, 0.03, 0.07, 0.15};
 
 static void usage(FILE *f)
 {
@@ -62,6 +60,7 @@ static void usage(FILE *f)
           "\n"
           "options:\n"
           "  -o OUT                 the main job's output (.glb or .gltf)\n"
+          "  --config FILE          read settings from a pipeline.toml (flags override it)\n"
           "  --pixel-error P        screen error in pixels at the switching distance (1)\n"
           "  --viewport-height H    viewport height in pixels (1080)\n"
           "  --fov-y RADIANS        vertical field of view (0.7853981633974483)\n"
@@ -71,7 +70,7 @@ static void usage(FILE *f)
           "  --quiet                no warnings on stderr\n"
           "  --levels LIST          eps per level in percent of the mesh's bounding-box\n"
           "                         diagonal, increasing (default 1,3,7,15)\n"
-          "  --threads N            worker threads (default: one per core); the result\n"
+          "  --threads N            worker threads, 0..64 (0, the default: one per core); the result\n"
           "                         does not depend on it\n"
           "  --help                 this text\n"
           "  --version              the version\n"
@@ -199,6 +198,16 @@ static int cmd_convert(const cli *c)
     return rc;
 }
 
+/* The simplifier's options from the effective configuration. */
+static simplify_options simplify_options_of(const cli *c)
+{
+    simplify_options opt = {c->levels, (uint32_t)c->config.lod.level_count, (uint32_t)c->config.run.threads,
+                            c->config.lod.flip_cos, 0};
+    const char *verify = getenv("LODPIPE_VERIFY");
+    opt.verify = verify && strcmp(verify, "0") != 0;
+    return opt;
+}
+
 /* Writes `size` bytes to path through the all-or-nothing writer. */
 static int write_bytes(const char *path, char *bytes, size_t size)
 {
@@ -272,9 +281,7 @@ static int cmd_simplify(const cli *c)
     scene s;
     int rc = load(c, in, &s);
     if (rc) return rc;
-    simplify_options opt = {c->levels, c->level_count, c->threads, 0.25, 0};
-    const char *verify = getenv("LODPIPE_VERIFY");
-    opt.verify = verify && strcmp(verify, "0") != 0;
+    simplify_options opt = simplify_options_of(c);
     char *json = NULL;
     size_t json_size = 0;
     FILE *j = open_memstream(&json, &json_size);
@@ -363,10 +370,10 @@ static int cmd_lod(const cli *c)
     int rc = load(c, in, &s);
     if (rc) return rc;
     const int progress = !c->quiet && isatty(STDERR_FILENO);
-    simplify_options opt = {c->levels, c->level_count, c->threads, 0.25, 0};
-    const char *verify = getenv("LODPIPE_VERIFY");
-    opt.verify = verify && strcmp(verify, "0") != 0;
-    lodchain_options chain = {{c->pixel_error, c->viewport_height, c->fov_y}, c->min_reduction};
+    simplify_options opt = simplify_options_of(c);
+    lodchain_options chain = {{c->config.switching.pixel_error, c->config.switching.viewport_height,
+                               c->config.switching.fov_y},
+                              c->config.lod.min_reduction};
     jsonw j = {0};
     jsonw_raw(&j, "{\"input\":");
     jsonw_string(&j, in);
@@ -557,111 +564,76 @@ static int cmd_check(const cli *c)
     return LP_OK;
 }
 
-/* "1,3,7,15" (percent of the diagonal) -> increasing fractions. */
-static int parse_levels(const char *text, cli *c)
-{
-    c->level_count = 0;
-    const char *p = text;
-    while (*p) {
-        char *end;
-        double v = strtod(p, &end);
-        if (end == p || !(v > 0.0) || !(v <= 100.0) || c->level_count == SIMPLIFY_MAX_LEVELS ||
-            (c->level_count && v / 100.0 <= c->levels[c->level_count - 1]))
-            return -1;
-        c->levels[c->level_count++] = v / 100.0;
-        p = end;
-        if (*p == ',') p++;
-        else if (*p) return -1;
-    }
-    return c->level_count ? 0 : -1;
-}
-
+/* Reads the command line: the command, its operands, the tool's own flags,
+ * and the configuration (defaults, then --config FILE, then config flags in
+ * the order given). */
 static int parse(int argc, char **argv, cli *c)
 {
     memset(c, 0, sizeof *c);
-    c->level_count = sizeof kDefaultLevels / sizeof kDefaultLevels[0];
-    c->pixel_error = 1.0;
-    c->viewport_height = 1080.0;
-    c->fov_y = 0.7853981633974483;
-    c->min_reduction = 0.10;
-    memcpy(c->levels, kDefaultLevels, sizeof kDefaultLevels);
-    for (int i = 1; i < argc; ++i) {
+    const char **config_args = calloc((size_t)argc + 1, sizeof *config_args);
+    if (!config_args) return LP_IO;
+    size_t config_argc = 0;
+    int rc = LP_OK;
+    for (int i = 1; i < argc && !rc; ++i) {
         const char *a = argv[i];
-        if ((strcmp(a, "--levels") == 0 || strcmp(a, "--threads") == 0) && i + 1 >= argc) {
+        int kind = config_flag(a);
+        int takes_value = kind == 1 || strcmp(a, "-o") == 0 || strcmp(a, "--config") == 0;
+        if (takes_value && i + 1 >= argc) {
             char msg[300];
             snprintf(msg, sizeof msg, "%s needs a value", a);
-            return usage_error(msg);
+            rc = usage_error(msg);
+            break;
         }
-        if (strcmp(a, "--levels") == 0) {
-            if (parse_levels(argv[++i], c)) {
-                char msg[300];
-                snprintf(msg, sizeof msg, "--levels %.200s: expected increasing percentages in (0, 100], e.g. 1,3,7,15", argv[i]);
-                return usage_error(msg);
-            }
-            continue;
-        }
-        if (strcmp(a, "-o") == 0 || strcmp(a, "--pixel-error") == 0 || strcmp(a, "--viewport-height") == 0 ||
-            strcmp(a, "--fov-y") == 0) {
-            if (i + 1 >= argc) {
-                char msg[300];
-                snprintf(msg, sizeof msg, "%s needs a value", a);
-                return usage_error(msg);
-            }
-            const char *v = argv[++i];
-            if (strcmp(a, "-o") == 0) {
-                c->output = v;
-                continue;
-            }
-            char *end;
-            double x = strtod(v, &end);
-            int bad = *end || end == v || !(x > 0.0);
-            if (strcmp(a, "--fov-y") == 0) bad = bad || !(x < 3.141592653589793);
-            if (bad) {
-                char msg[300];
-                snprintf(msg, sizeof msg, "%s %.100s: expected a positive number%s", a, v,
-                         strcmp(a, "--fov-y") == 0 ? " below pi (radians)" : "");
-                return usage_error(msg);
-            }
-            if (strcmp(a, "--pixel-error") == 0) c->pixel_error = x;
-            else if (strcmp(a, "--viewport-height") == 0) c->viewport_height = x;
-            else c->fov_y = x;
-            continue;
-        }
-        if (strcmp(a, "--json") == 0) {
-            c->json = 1;
-            continue;
-        }
-        if (strcmp(a, "--threads") == 0) {
-            char *end;
-            long n = strtol(argv[++i], &end, 10);
-            if (*end || n < 1 || n > 64) return usage_error("--threads takes a whole number from 1 to 64");
-            c->threads = (uint32_t)n;
-            continue;
-        }
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+        if (kind) {
+            config_args[config_argc++] = a;
+            config_args[config_argc++] = kind == 1 ? argv[++i] : "true";
+        } else if (strcmp(a, "-o") == 0) {
+            c->output = argv[++i];
+        } else if (strcmp(a, "--config") == 0) {
+            c->config_path = argv[++i];
+        } else if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             usage(stdout);
+            free(config_args);
             exit(LP_OK);
         } else if (strcmp(a, "--version") == 0) {
             printf("lodpipe %s\n", LODPIPE_VERSION);
+            free(config_args);
             exit(LP_OK);
         } else if (strcmp(a, "--force") == 0) {
             c->force = 1;
         } else if (strcmp(a, "--quiet") == 0 || strcmp(a, "-q") == 0) {
             c->quiet = 1;
+        } else if (strcmp(a, "--json") == 0) {
+            c->json = 1;
         } else if (strcmp(a, "--allow-external-uris") == 0) {
             c->allow_external_uris = 1;
         } else if (a[0] == '-' && a[1]) {
             char msg[300];
             snprintf(msg, sizeof msg, "unknown option %.200s", a);
-            return usage_error(msg);
+            rc = usage_error(msg);
         } else if (!c->command) {
             c->command = a;
         } else if (c->operand_count < 2) {
             c->operands[c->operand_count++] = a;
         } else {
-            return usage_error("too many arguments");
+            rc = usage_error("too many arguments");
         }
     }
+    lp_error err = {0, ""};
+    config_defaults(&c->config);
+    if (!rc && c->config_path && (rc = config_load(&c->config, c->config_path, &err)) != 0)
+        fprintf(stderr, "lodpipe: %s\n", err.msg);
+    for (size_t k = 0; !rc && k < config_argc; k += 2)
+        if ((rc = config_set(&c->config, config_args[k], config_args[k + 1], &err)) != 0)
+            fprintf(stderr, "lodpipe: %s\n", err.msg);
+    free(config_args);
+    if (rc) return rc;
+    if (c->config.draco.enabled) {
+        fprintf(stderr, "lodpipe: Draco compression (draco.enabled / --draco) is not implemented yet\n");
+        return LP_USAGE;
+    }
+    for (size_t k = 0; k < c->config.lod.level_count && k < SIMPLIFY_MAX_LEVELS; ++k)
+        c->levels[k] = c->config.lod.levels[k] / 100.0;
     return LP_OK;
 }
 
