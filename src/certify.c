@@ -112,7 +112,8 @@ static double max_corner_distance(const vec3d piece[3], const vec3d tri[3])
     double worst = 0.0;
     for (int k = 0; k < 3; ++k) {
         double d2 = geom_point_triangle_distance2(&piece[k], &tri[0], &tri[1], &tri[2], NULL);
-        if (!(d2 <= worst)) worst = d2; /* NaN propagates as "worst" */
+        if (d2 != d2) return INFINITY; /* NaN: never accepted */
+        if (d2 > worst) worst = d2;
     }
     return sqrt(worst);
 }
@@ -204,6 +205,7 @@ typedef struct cover_state {
     uint32_t used_count;
     double accept;
     double bound;
+    int tightest; /* choose the tightest face per piece, not the first that holds */
 } cover_state;
 
 static int face_may_witness(const cover_state *s, const cert_tri *f)
@@ -262,12 +264,19 @@ static int piece_b(cover_state *s, const vec3d p[3], int depth)
         double m = corners_within(f, p, &c, r, s->accept);
         if (m <= s->accept && use_face(s, f->id, m)) return 1;
     }
+    double tight = INFINITY;
+    uint32_t tight_id = 0;
     for (uint32_t i = 0; i < s->count; ++i) {
         const cert_tri *f = &s->faces[i];
         if ((s->used_count == CERT_MAX_WITNESSES && !already_used(s, f->id)) || !face_may_witness(s, f)) continue;
         double m = corners_within(f, p, &c, r, s->accept);
-        if (m <= s->accept && use_face(s, f->id, m)) return 1;
+        if (!s->tightest && m <= s->accept && use_face(s, f->id, m)) return 1;
+        if (m < tight) {
+            tight = m;
+            tight_id = f->id;
+        }
     }
+    if (s->tightest && tight <= s->accept && use_face(s, tight_id, tight)) return 1;
     double best = INFINITY;
     uint32_t best_id = 0;
     for (uint32_t i = 0; i < s->count; ++i) {
@@ -295,11 +304,23 @@ int cert_cover(const cert_original *o, uint32_t t, const cert_tri *faces, uint32
                const uint32_t *first, uint32_t first_count, uint32_t used[CERT_MAX_WITNESSES],
                uint32_t *used_count, double *bound)
 {
-    cover_state s = {o, t, faces, count, first, first_count, used, 0, eps * (1.0 - CERT_MARGIN), 0.0};
+    cover_state s = {o, t, faces, count, first, first_count, used, 0, eps * (1.0 - CERT_MARGIN), 0.0, 0};
     vec3d p[3];
     triangle_of(o, t, p);
     int ok = piece_b(&s, p, 0);
     *used_count = s.used_count;
+    *bound = s.bound;
+    return ok;
+}
+
+int cert_cover_within(const cert_original *o, uint32_t t, const cert_tri *faces, uint32_t count, double limit,
+                      double *bound)
+{
+    uint32_t used[CERT_MAX_WITNESSES];
+    cover_state s = {o, t, faces, count, NULL, 0, used, 0, limit, 0.0, 1};
+    vec3d p[3];
+    triangle_of(o, t, p);
+    int ok = piece_b(&s, p, 0);
     *bound = s.bound;
     return ok;
 }

@@ -86,4 +86,11 @@ int cert_cover(const cert_original *o, uint32_t t, const cert_tri *faces, uint32
                const uint32_t *first, uint32_t first_count, uint32_t used[CERT_MAX_WITNESSES],
                uint32_t *used_count, double *bound);
 
+/* The invariant checker's re-run of (b): is t within `limit` (accepted as
+ * d <= limit) of faces[0..count-1] (at most CERT_MAX_WITNESSES), choosing the
+ * tightest face for every piece? It accepts wherever cert_cover accepted with
+ * a bound <= limit over these faces, so a "no" is a broken invariant. */
+int cert_cover_within(const cert_original *o, uint32_t t, const cert_tri *faces, uint32_t count, double limit,
+                      double *bound);
+
 #endif
