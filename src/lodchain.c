@@ -9,6 +9,7 @@
 
 #include "accessor.h"
 #include "jsonw.h"
+#include "measure.h"
 
 static void warn(lodchain_summary *out, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void warn(lodchain_summary *out, const char *fmt, ...)
@@ -350,6 +351,14 @@ static int annotate_node(scene *s, uint32_t node, uint32_t m, const lodchain_sum
         jsonw_number(&meta, d);
         jsonw_raw(&meta, ",\"screen_coverage\":");
         jsonw_number(&meta, c);
+        if (chain->target_count) {
+            jsonw_raw(&meta, ",\"morph_errors\":[");
+            for (uint32_t t = 0; t < chain->target_count; ++t) {
+                if (t) jsonw_raw(&meta, ",");
+                jsonw_number(&meta, chain->morph_errors[(size_t)k * chain->target_count + t]);
+            }
+            jsonw_raw(&meta, "]");
+        }
         jsonw_raw(&meta, "}");
     }
     jsonw_raw(&ids, "]}");
@@ -374,6 +383,107 @@ static int annotate_node(scene *s, uint32_t node, uint32_t m, const lodchain_sum
     return rc;
 }
 
+/* ---- morph targets ----------------------------------------------------------------- */
+
+/* One mesh's triangle primitives with target t applied at weight 1 (t < 0:
+ * the base shape), the triangles of LOD0 (level == NULL) or of a level. */
+static int morphed_mesh(const scene *s, uint32_t m, const weld_result *w, const simplify_level *level, int t,
+                        float **positions, uint32_t **triangles, measure_mesh *out, lp_error *err)
+{
+    const scene_mesh *mesh = &s->meshes[m];
+    size_t vertices = 0, tris = 0;
+    for (uint32_t p = 0; p < mesh->primitive_count; ++p)
+        if (!mesh->primitives[p].skipped && mesh->primitives[p].triangle_count) {
+            vertices += mesh->primitives[p].vertex_count;
+            tris += level ? 0 : mesh->primitives[p].triangle_count;
+        }
+    if (level) tris = level->triangle_count;
+    uint32_t *base = calloc(mesh->primitive_count + 1, sizeof *base);
+    *positions = malloc((3 * vertices + 1) * sizeof **positions);
+    *triangles = malloc((3 * tris + 1) * sizeof **triangles);
+    if (!base || !*positions || !*triangles) {
+        free(base);
+        return lp_fail(err, LP_INVALID, "out of memory");
+    }
+    size_t v = 0, k = 0;
+    for (uint32_t p = 0; p < mesh->primitive_count; ++p) {
+        const scene_primitive *pr = &mesh->primitives[p];
+        if (pr->skipped || !pr->triangle_count) continue;
+        base[p] = (uint32_t)v;
+        memcpy(*positions + 3 * v, pr->positions, 3 * (size_t)pr->vertex_count * sizeof(float));
+        if (t >= 0 && (uint32_t)t < pr->target_count) {
+            gltf_primitive g;
+            gltf_get_primitive(s->doc, m, p, &g);
+            for (size_t a = 0; a < g.target_attribute_counts[t]; ++a) {
+                if (strcmp(g.target_attributes[t][a].name, "POSITION") != 0) continue;
+                float *delta;
+                uint32_t count, comps;
+                int rc = accessor_read_floats(s->doc, g.target_attributes[t][a].accessor, &delta, &count, &comps, err);
+                if (rc) {
+                    free(base);
+                    return rc;
+                }
+                for (uint32_t i = 0; i < count && i < pr->vertex_count && comps == 3; ++i)
+                    for (int c = 0; c < 3; ++c) (*positions)[3 * (v + i) + c] += delta[3 * (size_t)i + c];
+                free(delta);
+            }
+        }
+        if (!level)
+            for (size_t i = 0; i < 3 * (size_t)pr->triangle_count; ++i) (*triangles)[k++] = (uint32_t)v + pr->triangles[i];
+        v += pr->vertex_count;
+    }
+    if (level)
+        for (uint32_t i = 0; i < 3 * level->triangle_count; ++i) {
+            uint32_t wedge = level->wedges[i];
+            (*triangles)[k++] = base[w->wedge_primitive[wedge]] + w->wedge_index[wedge];
+        }
+    free(base);
+    *out = (measure_mesh){*positions, (uint32_t)v, *triangles, (uint32_t)(k / 3)};
+    return LP_OK;
+}
+
+/* Measures every kept level against LOD0 under every morph target. */
+static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, const simplify_result *r,
+                          const uint32_t *kept, lodchain_summary *out, lp_error *err)
+{
+    const scene_mesh *mesh = &s->meshes[m];
+    uint32_t targets = 0;
+    for (uint32_t p = 0; p < mesh->primitive_count; ++p)
+        if (!mesh->primitives[p].skipped && mesh->primitives[p].target_count > targets)
+            targets = mesh->primitives[p].target_count;
+    if (!targets) return LP_OK;
+    out->target_count = targets;
+    out->morph_errors = calloc((size_t)out->level_count * targets + 1, sizeof *out->morph_errors);
+    if (!out->morph_errors) return lp_fail(err, LP_INVALID, "out of memory");
+    const double spacing = r->diagonal / 400.0;
+    int rc = LP_OK;
+    for (uint32_t t = 0; t < targets && !rc; ++t) {
+        float *bp = NULL, *lp = NULL;
+        uint32_t *bt = NULL, *lt = NULL;
+        measure_mesh a, b;
+        rc = morphed_mesh(s, m, w, NULL, (int)t, &bp, &bt, &a, err);
+        for (uint32_t k = 0; k < out->level_count && !rc; ++k) {
+            free(lp);
+            free(lt);
+            lp = NULL;
+            lt = NULL;
+            rc = morphed_mesh(s, m, w, &r->levels[kept[k]], (int)t, &lp, &lt, &b, err);
+            if (!rc) out->morph_errors[(size_t)k * targets + t] = measure_two_sided(&a, &b, spacing);
+        }
+        free(bp);
+        free(bt);
+        free(lp);
+        free(lt);
+    }
+    return rc;
+}
+
+void lodchain_summary_free(lodchain_summary *summary)
+{
+    free(summary->morph_errors);
+    summary->morph_errors = NULL;
+}
+
 /* ---- the whole chain --------------------------------------------------------------- */
 
 int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_result *r,
@@ -384,8 +494,12 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
     const uint32_t level_count = keep_levels(w, r, o->min_reduction, kept);
     if (level_count == 0) return LP_OK;
     const scene_mesh *mesh = &s->meshes[m];
+    out->level_count = level_count; /* before the reorder: morphs are measured in the original order */
+    int rc = measure_morphs(s, m, w, r, kept, out, err);
+    out->level_count = 0;
+    if (rc) return rc;
     uint32_t **new_of_old = calloc(mesh->primitive_count + 1, sizeof *new_of_old);
-    int rc = new_of_old ? LP_OK : lp_fail(err, LP_INVALID, "out of memory");
+    rc = new_of_old ? LP_OK : lp_fail(err, LP_INVALID, "out of memory");
     for (uint32_t p = 0; p < mesh->primitive_count && !rc; ++p) {
         const scene_primitive *pr = &mesh->primitives[p];
         if (pr->skipped || pr->mode < 4 || pr->triangle_count == 0) continue;

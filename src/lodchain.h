@@ -16,7 +16,10 @@
  *   and lines primitives are copied as they are;
  * - every node that uses the mesh gets extensions.MSFT_lod.ids naming one new
  *   node per level (same transform, skin and morph weights, not in any scene),
- *   extras.MSFT_screencoverage and extras.lodpipe (README: "Output format").
+ *   extras.MSFT_screencoverage and extras.lodpipe (README: "Output format");
+ * - morph targets: the bound holds for the base shape; for each target the
+ *   level's distance to LOD0 with that target applied at weight 1 is MEASURED
+ *   (dense sampling, measure.h) and written beside the bound.
  * Nothing else in the document changes. A node that already carries MSFT_lod
  * is left alone (with a warning). */
 #ifndef LODPIPE_LODCHAIN_H
@@ -45,6 +48,10 @@ typedef struct lodchain_level {
 typedef struct lodchain_summary {
     uint32_t level_count; /* kept */
     lodchain_level levels[SIMPLIFY_MAX_LEVELS];
+    /* morph targets: per kept level, the measured (not certified) two-sided
+     * distance between level and LOD0 with target t at weight 1 */
+    uint32_t target_count;
+    double *morph_errors; /* level_count * target_count, freed by lodchain_summary_free */
     uint32_t nodes;       /* nodes that got MSFT_lod */
     uint32_t primitives_not_reordered;
     uint32_t warning_count;
@@ -53,5 +60,6 @@ typedef struct lodchain_summary {
 
 int lodchain_write(scene *s, uint32_t mesh, const weld_result *w, const simplify_result *r,
                    const lodchain_options *options, lodchain_summary *out, lp_error *err);
+void lodchain_summary_free(lodchain_summary *summary);
 
 #endif

@@ -401,6 +401,7 @@ static int cmd_lod(const cli *c)
         }
         free(materials);
         if (rc) {
+            lodchain_summary_free(&sum);
             simplify_result_free(&r);
             break;
         }
@@ -433,6 +434,7 @@ static int cmd_lod(const cli *c)
         }
         jsonw_raw(&j, "]}");
         first = 0;
+        lodchain_summary_free(&sum);
         simplify_result_free(&r);
     }
     jsonw_raw(&j, "]}\n");

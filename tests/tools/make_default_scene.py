@@ -31,6 +31,7 @@ there to exercise one part of the LOD pipeline:
             edge (same position, different normals). It checks that attribute
             seams do not tear and that a border (the lip) is kept.
 
+  (the vase carries one morph target, a bulge, so morph handling is exercised)
   torus     A closed torus with a wavy tube radius, with UV seams in both
             directions. It is INSTANCED by two nodes at different scales
             (1 and 2.5), translations and rotations: it checks that a mesh used by
@@ -201,6 +202,7 @@ class Primitive:
         self.normals = normals
         self.uvs = uvs
         self.indices = indices
+        self.targets = []  # morph targets: per target, a POSITION delta per vertex
 
 
 def split_into_primitives(surface):
@@ -410,13 +412,43 @@ def mesh_json(name, primitives, builder):
             "NORMAL": builder.add_float_attribute(p.normals, "VEC3"),
             "TEXCOORD_0": builder.add_float_attribute(p.uvs, "VEC2"),
         }
-        entries.append({
+        entry = {
             "attributes": attributes,
             "indices": builder.add_indices(p.indices, len(p.positions)),
             "material": p.material,
             "mode": TRIANGLES,
-        })
-    return {"name": name, "primitives": entries}
+        }
+        if p.targets:
+            entry["targets"] = [{"POSITION": builder.add_float_attribute(t, "VEC3", with_bounds=True)}
+                                for t in p.targets]
+        entries.append(entry)
+    mesh = {"name": name, "primitives": entries}
+    target_count = max(len(p.targets) for p in primitives)
+    if target_count:
+        mesh["weights"] = [0.0] * target_count
+    return mesh
+
+
+def add_bulge_target(primitives):
+    """A morph target that swells the middle of a surface of revolution about the y axis.
+
+    It exists so the LOD chain's morph-target handling (the bound holds for the base
+    shape; each target's extra deviation is measured and recorded) has something to do.
+    """
+    for p in primitives:
+        ys = [v[1] for v in p.positions]
+        low, high = min(ys), max(ys)
+        deltas = []
+        for x, y, z in p.positions:
+            r = math.hypot(x, z)
+            t = (y - low) / (high - low) if high > low else 0.0
+            amount = 0.12 * math.sin(math.pi * t)
+            if r > 1e-6:
+                deltas.append(vec3_float32((amount * x / r, 0.0, amount * z / r)))
+            else:
+                deltas.append((0.0, 0.0, 0.0))
+        p.targets.append(deltas)
+    return primitives
 
 
 def material_json(name, color, metallic, roughness):
@@ -534,7 +566,7 @@ def main(argv):
     meshes = [
         ("terrain", split_into_primitives(make_terrain())),
         ("rock", split_into_primitives(make_rock())),
-        ("vase", split_into_primitives(make_vase())),
+        ("vase", add_bulge_target(split_into_primitives(make_vase()))),
         ("torus", split_into_primitives(make_torus())),
     ]
     data = glb_bytes(*build_gltf(meshes))
