@@ -265,7 +265,7 @@ static void json_string(FILE *f, const char *s)
 
 static void json_stats(FILE *f, const simplify_stats *st)
 {
-    static const char *const names[SIMPLIFY_REJECT_COUNT] = {"kind", "link", "flip", "cover", "face", "conflict"};
+    static const char *const names[SIMPLIFY_REJECT_COUNT] = {"kind", "link", "flip", "intersect", "cover", "face", "conflict"};
     fprintf(f, "\"candidates\":%llu,\"attempts\":%llu,\"commits\":%llu,\"passes\":%u,\"batches\":%u,\"rejected\":{",
             (unsigned long long)st->candidates, (unsigned long long)st->attempts, (unsigned long long)st->commits,
             st->passes, st->batches);

@@ -24,7 +24,9 @@
 #include <unistd.h>
 
 #include "certify.h"
+#include "facegrid.h"
 #include "geom.h"
+#include "intersect.h"
 #include "quadric.h"
 #include "registry.h"
 
@@ -123,6 +125,11 @@ typedef struct sim {
     uint32_t batch_stamp;
     quadric *quadrics;
     double origin[3];
+    /* every alive face, for the self-intersection test; rebuilt when the
+     * faces have halved, so cells follow the faces' growing size */
+    facegrid grid;
+    uint32_t grid_built_with;
+    uint32_t *face_commit_stamp; /* batch in which a commit last changed the face */
     registry reg;
     cert_original orig;
     uint8_t *death;
@@ -345,6 +352,50 @@ static int flip_ok(const sim *s, scratch *sc, uint32_t u, uint32_t v)
     return 1;
 }
 
+typedef struct crossing_query {
+    const sim *s;
+    const cert_tri *face; /* the new face */
+    uint32_t u;
+    uint32_t only_stamp;  /* 0: every face; else only faces committed in that batch */
+} crossing_query;
+
+static int crosses(void *context, uint32_t g)
+{
+    const crossing_query *q = context;
+    const sim *s = q->s;
+    if (!s->face_alive[g] || face_has(s, g, q->u)) return 0; /* the star itself is tested apart */
+    if (q->only_stamp && s->face_commit_stamp[g] != q->only_stamp) return 0;
+    double other[3][3];
+    for (int k = 0; k < 3; ++k) vertex_position(s, s->corner_vertex[3 * g + k], other[k]);
+    for (int a = 0; a < 3; ++a) { /* boxes first: most grid neighbours are not close */
+        double lo = fmin(other[0][a], fmin(other[1][a], other[2][a]));
+        double hi = fmax(other[0][a], fmax(other[1][a], other[2][a]));
+        if (lo > q->face->hi[a] || hi < q->face->lo[a]) return 0;
+    }
+    return intersect_triangles((const double(*)[3])q->face->p, (const double(*)[3])other);
+}
+
+/* 1 when a face of the new star would cross another face of the level or
+ * another new face (only_stamp: only faces committed in that batch). */
+static int star_crosses(const sim *s, scratch *sc, uint32_t u, uint32_t v, uint32_t only_stamp)
+{
+    size_t n = 0;
+    for (size_t i = 0; i < sc->faces_u.size; ++i)
+        if (!face_has(s, sc->faces_u.data[i], v)) n++;
+    if (grow((void **)&sc->tris, &sc->tris_cap, n + 1, sizeof *sc->tris)) return sc->oom = 1, 1;
+    n = 0;
+    for (size_t i = 0; i < sc->faces_u.size; ++i)
+        if (!face_has(s, sc->faces_u.data[i], v)) face_after(s, sc->faces_u.data[i], u, v, &sc->tris[n++]);
+    for (size_t i = 0; i < n; ++i) {
+        if (!only_stamp)
+            for (size_t j = i + 1; j < n; ++j)
+                if (intersect_triangles((const double(*)[3])sc->tris[i].p, (const double(*)[3])sc->tris[j].p)) return 1;
+        crossing_query q = {s, &sc->tris[i], u, only_stamp};
+        if (facegrid_query(&s->grid, sc->tris[i].lo, sc->tris[i].hi, crosses, &q)) return 1;
+    }
+    return 0;
+}
+
 /* Certifies the collapse u -> v. On success appends its records to the
  * thread's arena: changed face ids + bounds, then per re-certified original
  * (t, n, used[4]) + bound. Returns 1 accepted, 0 rejected (reason set). */
@@ -484,6 +535,11 @@ static void evaluate(const sim *s, scratch *sc, candidate *c)
             c->reason = SIMPLIFY_REJECT_FLIP;
             continue;
         }
+        if (star_crosses(s, sc, u, e->x, 0)) {
+            if (sc->oom) return;
+            c->reason = SIMPLIFY_REJECT_INTERSECT;
+            continue;
+        }
         if (certify_collapse(s, sc, c, u, e->x)) {
             c->v = e->x;
             c->cost = e->cost;
@@ -593,6 +649,10 @@ static int commit(sim *s, const candidate *c)
 
     scratch *sc = &s->serial;
     if (gather_faces(s, u, &sc->faces_u)) return sc->oom = 1, 0;
+    /* faces committed earlier in this batch were not there when the candidate
+     * was tested for crossings */
+    if (star_crosses(s, sc, u, v, s->batch_stamp)) return 0;
+    if (sc->oom) return 0;
     /* which of v's wedges replaces u's in each face: read from the faces on
      * edge (u, v), one per side (two for a seam) */
     uint32_t map_class[2] = {NONE, NONE}, map_wedge[2] = {NONE, NONE}, mapped = 0;
@@ -619,6 +679,17 @@ static int commit(sim *s, const candidate *c)
         }
         s->corner_vertex[cu] = v;
         s->corner_wedge[cu] = wedge;
+    }
+    for (size_t i = 0; i < sc->faces_u.size; ++i) {
+        uint32_t f = sc->faces_u.data[i];
+        if (!s->face_alive[f]) {
+            facegrid_remove(&s->grid, f);
+            continue;
+        }
+        cert_tri t;
+        face_after(s, f, NONE, NONE, &t);
+        if (facegrid_insert(&s->grid, f, t.lo, t.hi) != FACEGRID_OK) return sc->oom = 1, 0;
+        s->face_commit_stamp[f] = s->batch_stamp;
     }
     for (uint32_t i = 0; i < c->changed_count; ++i) s->face_bound[changed[i]] = changed_bounds[i];
     for (uint32_t i = 0; i < c->recheck_count; ++i) {
@@ -807,6 +878,33 @@ static int reserve_footprint(sim *s, uint32_t u)
 
 static void process_batch(sim *s, candidate *batch, size_t count, long *commits);
 
+/* (Re)builds the face grid with cells about twice the alive faces' mean
+ * extent. Returns 0, or -1 when memory runs out. */
+static int grid_rebuild(sim *s)
+{
+    double extent = 0.0;
+    uint32_t alive = 0;
+    cert_tri t;
+    for (uint32_t f = 0; f < s->nf; ++f) {
+        if (!s->face_alive[f]) continue;
+        face_after(s, f, NONE, NONE, &t);
+        double e = fmax(t.hi[0] - t.lo[0], fmax(t.hi[1] - t.lo[1], t.hi[2] - t.lo[2]));
+        if (isfinite(e)) extent += e;
+        alive++;
+    }
+    double cell = alive ? 2.0 * extent / alive : 1.0;
+    if (!(cell > 0.0) || !isfinite(cell)) cell = 1.0;
+    facegrid_free(&s->grid);
+    if (facegrid_init(&s->grid, cell, s->nf) != FACEGRID_OK) return -1;
+    for (uint32_t f = 0; f < s->nf; ++f) {
+        if (!s->face_alive[f]) continue;
+        face_after(s, f, NONE, NONE, &t);
+        if (facegrid_insert(&s->grid, f, t.lo, t.hi) != FACEGRID_OK) return -1;
+    }
+    s->grid_built_with = alive;
+    return 0;
+}
+
 /* One sweep over the candidates in cost order, in batches of independent
  * ones; a candidate that is not independent of its batch waits for the next
  * pass. Returns the number of commits (+ waiting candidates in *waiting), or
@@ -815,6 +913,9 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
 {
     simplify_stats *st = s->stats;
     double t0 = now_seconds();
+    uint32_t alive = 0;
+    for (uint32_t f = 0; f < s->nf; ++f) alive += s->face_alive[f];
+    if (alive < s->grid_built_with / 2 && grid_rebuild(s)) return -1;
     size_t n = collect_candidates(s, ranks);
     st->seconds_select += now_seconds() - t0;
     long commits = 0;
@@ -929,6 +1030,8 @@ static void sim_free(sim *s)
     free(s->vertex_read_stamp);
     free(s->orig_stamp);
     free(s->quadrics);
+    free(s->face_commit_stamp);
+    facegrid_free(&s->grid);
     registry_free(&s->reg);
     cert_original_free(&s->orig);
     for (uint32_t t = 0; t <= MAX_THREADS; ++t) {
@@ -985,9 +1088,10 @@ static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_mater
     s->vertex_read_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_read_stamp);
     s->orig_stamp = calloc((size_t)nf + 1, sizeof *s->orig_stamp);
     s->quadrics = calloc((size_t)nv + 1, sizeof *s->quadrics);
+    s->face_commit_stamp = calloc((size_t)nf + 1, sizeof *s->face_commit_stamp);
     if (!s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next || !s->face_alive ||
         !s->face_bound || !s->orig_bound || !s->vertex_first || !s->vertex_alive || !s->version ||
-        !s->reject_version || !s->vertex_stamp || !s->vertex_read_stamp || !s->orig_stamp || !s->quadrics)
+        !s->reject_version || !s->vertex_stamp || !s->vertex_read_stamp || !s->orig_stamp || !s->quadrics || !s->face_commit_stamp)
         return -1;
     for (uint32_t t = 0; t < s->thread_count; ++t)
         if (scratch_init(&s->scratch[t], nv, nf)) return -1;
@@ -1089,6 +1193,10 @@ int simplify_mesh(const weld_result *w, const int64_t *primitive_material, const
         s->eps = options->fractions[k] * out->diagonal;
         level->eps = s->eps;
         memset(s->reject_version, 0xff, (size_t)w->vertex_count * sizeof *s->reject_version);
+        if (grid_rebuild(s)) {
+            rc = lp_fail(err, LP_INVALID, "out of memory");
+            goto done;
+        }
         /* a mesh whose diagonal is zero (or eps zero) has nothing to remove */
         while (s->eps > 0.0 && level->stats.passes < MAX_PASSES) {
             size_t waiting = 0;

@@ -12,8 +12,9 @@
  *
  * How. Half-edge collapses u -> v (v keeps its position and attributes, so
  * nothing is interpolated and all levels can share one vertex buffer), legal
- * by the vertex kinds of weld.h, the link condition, a degree floor and the
- * flip guard; ordered by a position quadric; evaluated in batches whose
+ * by the vertex kinds of weld.h, the link condition, a degree floor, the
+ * flip guard and a self-intersection test (no new face may cross another face
+ * of the level: tested everywhere, DESIGN.md §5's strict mode); ordered by a position quadric; evaluated in batches whose
  * neighbourhoods are disjoint, certified in parallel and committed in a fixed
  * order, so the result does not depend on the thread count. A rejected
  * candidate is retried only after its neighbourhood changes. */
@@ -39,6 +40,7 @@ enum {
     SIMPLIFY_REJECT_KIND,     /* vertex kind or edge type forbids it */
     SIMPLIFY_REJECT_LINK,     /* link condition or degree floor */
     SIMPLIFY_REJECT_FLIP,     /* a face would turn too far or become degenerate */
+    SIMPLIFY_REJECT_INTERSECT,/* a new face would intersect another face of the level */
     SIMPLIFY_REJECT_COVER,    /* (b): an original would not stay within eps */
     SIMPLIFY_REJECT_FACE,     /* (a): a new face would leave eps of the original */
     SIMPLIFY_REJECT_CONFLICT, /* an earlier commit of the batch changed its data: retried */
