@@ -83,64 +83,24 @@ static int accessor_header(const gltf_doc *doc, int64_t index, gltf_accessor *ac
 int accessor_read_floats(const gltf_doc *doc, int64_t index, float **out, uint32_t *count,
                          uint32_t *components, lp_error *err)
 {
-    gltf_accessor acc;
+    uint8_t *raw;
+    uint32_t n, elem;
     *out = NULL;
-    int rc = accessor_header(doc, index, &acc, err);
+    int rc = accessor_read_raw(doc, index, &raw, &n, &elem, err);
     if (rc) return rc;
-    if (acc.is_matrix)
-        return lp_fail(err, LP_INVALID, "accessors[%lld]: a matrix accessor where a vector was expected",
-                       (long long)index);
-    const uint32_t csize = component_size(acc.component_type);
-    const uint32_t comps = (uint32_t)acc.components;
-    const uint64_t elem = (uint64_t)csize * comps;
-    const uint8_t *base = NULL;
-    uint64_t stride = elem;
-    if (acc.buffer_view >= 0) {
-        gltf_view view;
-        if (gltf_get_view(doc, (size_t)acc.buffer_view, &view) == 0 && view.byte_stride) stride = view.byte_stride;
-        if (stride < elem)
-            return lp_fail(err, LP_INVALID, "accessors[%lld]: byteStride %llu is smaller than an element (%llu bytes)",
-                           (long long)index, (unsigned long long)stride, (unsigned long long)elem);
-        base = span_in_view(doc, acc.buffer_view, acc.byte_offset, acc.count, elem, stride, index, "", err);
-        if (!base) return err->code;
+    gltf_accessor acc;
+    gltf_get_accessor(doc, (size_t)index, &acc);
+    const uint32_t csize = component_size(acc.component_type), comps = (uint32_t)acc.components;
+    float *values = malloc((n ? (size_t)n * comps : 1) * sizeof *values);
+    if (!values) {
+        free(raw);
+        return lp_fail(err, LP_INVALID, "accessors[%lld]: out of memory", (long long)index);
     }
-    /* sparse: check everything before allocating */
-    const uint8_t *sparse_idx = NULL, *sparse_val = NULL;
-    uint32_t isize = 0;
-    if (acc.has_sparse) {
-        isize = component_size(acc.sparse_indices_type);
-        if (acc.sparse_indices_type == 5120 || acc.sparse_indices_type == 5122 || acc.sparse_indices_type == 5126 || !isize)
-            return lp_fail(err, LP_INVALID, "accessors[%lld]: sparse.indices.componentType %d is not an unsigned integer type",
-                           (long long)index, acc.sparse_indices_type);
-        if (acc.sparse_count > acc.count)
-            return lp_fail(err, LP_INVALID, "accessors[%lld]: sparse.count %llu exceeds count %llu", (long long)index,
-                           (unsigned long long)acc.sparse_count, (unsigned long long)acc.count);
-        sparse_idx = span_in_view(doc, acc.sparse_indices_view, acc.sparse_indices_offset, acc.sparse_count, isize,
-                                  isize, index, "sparse indices: ", err);
-        if (!sparse_idx) return err->code;
-        sparse_val = span_in_view(doc, acc.sparse_values_view, acc.sparse_values_offset, acc.sparse_count, elem, elem,
-                                  index, "sparse values: ", err);
-        if (!sparse_val) return err->code;
-    }
-    float *values = calloc(acc.count ? (size_t)acc.count * comps : 1, sizeof *values);
-    if (!values) return lp_fail(err, LP_INVALID, "accessors[%lld]: out of memory", (long long)index);
-    if (base)
-        for (uint64_t i = 0; i < acc.count; ++i)
-            for (uint32_t c = 0; c < comps; ++c)
-                values[i * comps + c] = decode_component(base + i * stride + c * csize, acc.component_type, acc.normalized);
-    for (uint64_t s = 0; s < acc.sparse_count; ++s) {
-        uint32_t target = decode_index(sparse_idx + s * isize, isize);
-        if (target >= acc.count) {
-            free(values);
-            return lp_fail(err, LP_INVALID, "accessors[%lld]: sparse index %u is out of range (count %llu)",
-                           (long long)index, target, (unsigned long long)acc.count);
-        }
-        for (uint32_t c = 0; c < comps; ++c)
-            values[(uint64_t)target * comps + c] =
-                decode_component(sparse_val + s * elem + c * csize, acc.component_type, acc.normalized);
-    }
+    for (size_t i = 0; i < (size_t)n * comps; ++i)
+        values[i] = decode_component(raw + i * csize, acc.component_type, acc.normalized);
+    free(raw);
     *out = values;
-    *count = (uint32_t)acc.count;
+    *count = n;
     *components = comps;
     return LP_OK;
 }

@@ -208,6 +208,23 @@ static simplify_options simplify_options_of(const cli *c)
     return opt;
 }
 
+/* Welds a mesh and runs the certified ladder on it; on failure nothing is
+ * left to free. */
+static int weld_and_simplify(const scene_mesh *mesh, const simplify_options *opt, weld_result *w,
+                             simplify_result *r, lp_error *err)
+{
+    memset(r, 0, sizeof *r);
+    int rc = weld_build(mesh, w, err);
+    if (rc) return rc;
+    int64_t *materials = malloc(((size_t)mesh->primitive_count + 1) * sizeof *materials);
+    if (!materials) rc = lp_fail(err, LP_INVALID, "out of memory");
+    for (uint32_t p = 0; materials && p < mesh->primitive_count; ++p) materials[p] = mesh->primitives[p].material;
+    if (!rc) rc = simplify_mesh(w, materials, opt, r, err);
+    free(materials);
+    if (rc) weld_free(w);
+    return rc;
+}
+
 /* Writes `size` bytes to path through the all-or-nothing writer. */
 static int write_bytes(const char *path, char *bytes, size_t size)
 {
@@ -298,20 +315,13 @@ static int cmd_simplify(const cli *c)
         const scene_mesh *mesh = &s.meshes[m];
         if (!mesh->instance_count || !mesh->triangle_count) continue;
         weld_result w;
+        simplify_result r;
         lp_error err = {0, ""};
-        if ((rc = weld_build(mesh, &w, &err)) != 0) {
+        if ((rc = weld_and_simplify(mesh, &opt, &w, &r, &err)) != 0) {
             report(in, &err);
             break;
         }
-        int64_t *materials = malloc(((size_t)mesh->primitive_count + 1) * sizeof *materials);
-        simplify_result r;
-        memset(&r, 0, sizeof r);
-        if (!materials) rc = lp_fail(&err, LP_INVALID, "out of memory");
-        for (uint32_t p = 0; materials && p < mesh->primitive_count; ++p) materials[p] = mesh->primitives[p].material;
-        if (!rc) rc = simplify_mesh(&w, materials, &opt, &r, &err);
-        if (rc) {
-            if (err.msg[0]) report(in, &err);
-        } else {
+        {
             snprintf(path, sizeof path, "%s/mesh%u_level0.obj", dir, m);
             rc = write_obj(path, &w, w.triangle_vertices, w.triangle_count, NULL);
             for (uint32_t k = 0; k < r.level_count && !rc; ++k) {
@@ -339,7 +349,6 @@ static int cmd_simplify(const cli *c)
                             r.diagonal > 0 ? 100.0 * r.levels[k].bound / r.diagonal : 0.0, r.levels[k].stats.seconds);
         }
         simplify_result_free(&r);
-        free(materials);
         weld_free(&w);
     }
     fprintf(j, "]}\n");
@@ -388,18 +397,12 @@ static int cmd_lod(const cli *c)
         weld_result w;
         simplify_result r;
         lodchain_summary sum;
-        memset(&r, 0, sizeof r);
         memset(&sum, 0, sizeof sum);
-        int64_t *materials = malloc(((size_t)mesh->primitive_count + 1) * sizeof *materials);
-        if (!materials) rc = lp_fail(&err, LP_INVALID, "out of memory");
-        for (uint32_t p = 0; materials && p < mesh->primitive_count; ++p) materials[p] = mesh->primitives[p].material;
-        if (!rc) rc = weld_build(mesh, &w, &err);
+        rc = weld_and_simplify(mesh, &opt, &w, &r, &err);
         if (!rc) {
-            rc = simplify_mesh(&w, materials, &opt, &r, &err);
-            if (!rc) rc = lodchain_write(&s, m, &w, &r, &chain, &sum, &err);
+            rc = lodchain_write(&s, m, &w, &r, &chain, &sum, &err);
             weld_free(&w);
         }
-        free(materials);
         if (rc) {
             lodchain_summary_free(&sum);
             simplify_result_free(&r);

@@ -12,22 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* ---- fixed-seed random numbers (splitmix64) ------------------------------- */
-
-static uint64_t rng_state = 0x66616365677269ULL;
-
-static uint64_t rng_next(void)
-{
-    uint64_t z = (rng_state += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-}
-
-static double rng_uniform(double lo, double hi)
-{
-    return lo + (hi - lo) * (double)(rng_next() >> 11) * (1.0 / 9007199254740992.0);
-}
+#define RNG_SEED 0x66616365677269ULL
+#include "rng.h"
 
 static uint32_t rng_below(uint32_t n)
 {
