@@ -127,10 +127,17 @@ static int reorder_accessor(gltf_doc *doc, int64_t a, const uint32_t *new_of_old
 }
 
 /* Writes indices as a new bufferView; returns the view, or -1. The type is
- * the accessor's (component_type) or, when 0, 16-bit if it fits. */
-static int64_t index_view(gltf_doc *doc, const uint32_t *idx, size_t n, uint32_t vertex_count, int *component_type)
+ * the accessor's (component_type) or, when 0, 16-bit if the largest index
+ * fits (a coarse level uses a short prefix of the vertices), else 32-bit;
+ * 65535 is avoided, it reads as a primitive restart in some APIs. */
+static int64_t index_view(gltf_doc *doc, const uint32_t *idx, size_t n, int *component_type)
 {
-    if (!*component_type) *component_type = vertex_count <= 65535 ? 5123 : 5125;
+    if (!*component_type) {
+        uint32_t largest = 0;
+        for (size_t i = 0; i < n; ++i)
+            if (idx[i] > largest) largest = idx[i];
+        *component_type = largest < 65535 ? 5123 : 5125;
+    }
     size_t size = *component_type == 5121 ? 1 : (*component_type == 5123 ? 2 : 4);
     uint8_t *bytes = calloc(n * size + 4, 1);
     if (!bytes) return -1;
@@ -150,10 +157,10 @@ static int64_t index_view(gltf_doc *doc, const uint32_t *idx, size_t n, uint32_t
 }
 
 /* A new index accessor over idx; returns its number, or -1. */
-static int64_t append_indices(gltf_doc *doc, const uint32_t *idx, size_t n, uint32_t vertex_count)
+static int64_t append_indices(gltf_doc *doc, const uint32_t *idx, size_t n)
 {
     int type = 0;
-    int64_t view = index_view(doc, idx, n, vertex_count, &type);
+    int64_t view = index_view(doc, idx, n, &type);
     if (view < 0) return -1;
     char json[160];
     snprintf(json, sizeof json, "{\"bufferView\":%lld,\"componentType\":%d,\"count\":%zu,\"type\":\"SCALAR\"}",
@@ -214,14 +221,14 @@ static int reorder_primitive(scene *s, uint32_t m, uint32_t p, const uint32_t *o
         gltf_accessor acc;
         gltf_get_accessor(s->doc, (size_t)g.indices, &acc);
         int type = acc.component_type;
-        int64_t view = index_view(s->doc, idx, n, pr->vertex_count, &type);
+        int64_t view = index_view(s->doc, idx, n, &type);
         if (view < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
         snprintf(value, sizeof value, "%lld", (long long)view);
         if (!rc) rc = set_json(s->doc, err, value, "/accessors/%lld/bufferView", (long long)g.indices);
         remove_json(s->doc, "/accessors/%lld/byteOffset", (long long)g.indices);
         remove_json(s->doc, "/accessors/%lld/sparse", (long long)g.indices);
     } else {
-        int64_t a = append_indices(s->doc, idx, n, pr->vertex_count);
+        int64_t a = append_indices(s->doc, idx, n);
         if (a < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
         snprintf(value, sizeof value, "%lld", (long long)a);
         if (!rc) rc = set_json(s->doc, err, value, "/meshes/%u/primitives/%u/indices", m, p);
@@ -277,7 +284,7 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
             if (level->primitive[t] != p) continue;
             for (int c = 0; c < 3; ++c) idx[k++] = new_of_old[p][w->wedge_index[level->wedges[3 * (size_t)t + c]]];
         }
-        int64_t a = append_indices(s->doc, idx, k, pr->vertex_count);
+        int64_t a = append_indices(s->doc, idx, k);
         free(idx);
         if (a < 0 || gltf_copy_json(s->doc, from, to) != 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
         char value[32];

@@ -919,6 +919,7 @@ void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
     resolve_views(doc);
     mark_referenced_views(doc);
     decode_compression(doc);
+    mark_referenced_views(doc);
     build_records(doc);
 }
 
@@ -1247,9 +1248,11 @@ std::vector<uint8_t> bytes_of(const std::string &s) { return std::vector<uint8_t
 } // namespace
 
 namespace {
+// Called before and after decoding: the compressed streams and the decoded
+// views both count as "referenced when read".
 void mark_referenced_views(gltf_doc *doc)
 {
-    doc->referenced_at_load.assign(doc->views.size(), 0);
+    doc->referenced_at_load.resize(doc->views.size(), 0);
     for_each_view_ref(doc->json, [&](ojson &ref) {
         uint64_t v = ref.get<uint64_t>();
         if (v < doc->referenced_at_load.size()) doc->referenced_at_load[v] = 1;
