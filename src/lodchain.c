@@ -298,12 +298,73 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
 
 /* ---- nodes --------------------------------------------------------------------- */
 
-static int64_t write_lod_node(scene *s, uint32_t node, int64_t lod_mesh, uint32_t number, lp_error *err)
+/* A node that has a mesh AND children cannot simply carry MSFT_lod: clients
+ * replace the node with its LOD node, children and all, so the children would
+ * vanish at coarse levels. Such a node keeps its transform and children and
+ * hands its mesh (with skin and morph weights, and animations of those
+ * weights) to a new child with the identity transform, which carries the
+ * chain. Returns the node that carries the mesh now, or -1. */
+static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
+{
+    gltf_node g;
+    gltf_get_node(s->doc, n, &g);
+    if (g.child_count == 0) return n;
+    jsonw j = {0};
+    const char *base = s->nodes[n].name;
+    jsonw_raw(&j, "{\"name\":");
+    size_t len = strlen(base);
+    char *name = malloc(len + 8);
+    if (name) {
+        memcpy(name, base, len);
+        memcpy(name + len, "_mesh", 6);
+        jsonw_string(&j, name);
+        free(name);
+    }
+    jsonw_printf(&j, ",\"mesh\":%lld}", (long long)s->nodes[n].mesh);
+    int64_t carrier = j.failed ? -1 : gltf_append_json(s->doc, "nodes", j.text);
+    jsonw_free(&j);
+    if (carrier < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+    char from[96], to[96], value[32];
+    for (const char *const *key = (const char *const[]){"skin", "weights", NULL}; *key; ++key) {
+        snprintf(from, sizeof from, "/nodes/%u/%s", n, *key);
+        snprintf(to, sizeof to, "/nodes/%lld/%s", (long long)carrier, *key);
+        if (gltf_copy_json(s->doc, from, to) == 0) gltf_remove_json(s->doc, from);
+    }
+    snprintf(from, sizeof from, "/nodes/%u/mesh", n);
+    gltf_remove_json(s->doc, from);
+    snprintf(to, sizeof to, "/nodes/%u/children/-", n);
+    snprintf(value, sizeof value, "%lld", (long long)carrier);
+    if (gltf_set_json(s->doc, to, value) != 0) return lp_fail(err, LP_INVALID, "cannot add a child to nodes[%u]", n), -1;
+    /* morph weight animations follow the mesh */
+    for (size_t a = 0; a < gltf_count(s->doc, GLTF_ANIMATIONS); ++a)
+        for (size_t c = 0;; ++c) {
+            char pointer[128];
+            snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target", a, c);
+            char *target = gltf_get_json(s->doc, pointer);
+            if (!target) break;
+            char expected[64];
+            snprintf(expected, sizeof expected, "\"node\":%u,", n);
+            int match = strstr(target, expected) && strstr(target, "\"path\":\"weights\"");
+            snprintf(expected, sizeof expected, "\"node\":%u}", n);
+            match = match || (strstr(target, expected) && strstr(target, "\"path\":\"weights\""));
+            free(target);
+            if (match) {
+                snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/node", a, c);
+                gltf_set_json(s->doc, pointer, value);
+            }
+        }
+    return carrier;
+}
+
+/* A LOD node named after scene node `named`, copying the transform, skin and
+ * weights of document node `from`. */
+static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64_t lod_mesh, uint32_t number,
+                              lp_error *err)
 {
     jsonw j = {0};
     char suffix[32];
     snprintf(suffix, sizeof suffix, "_LOD%u", number);
-    const char *base = s->nodes[node].name;
+    const char *base = s->nodes[named].name;
     size_t len = strlen(base);
     char *name = malloc(len + sizeof suffix);
     if (!name) return lp_fail(err, LP_INVALID, "out of memory"), -1;
@@ -319,17 +380,21 @@ static int64_t write_lod_node(scene *s, uint32_t node, int64_t lod_mesh, uint32_
     static const char *const kCopied[] = {"matrix", "translation", "rotation", "scale", "skin", "weights"};
     for (size_t k = 0; k < sizeof kCopied / sizeof kCopied[0]; ++k) {
         char from[96], to[96];
-        snprintf(from, sizeof from, "/nodes/%u/%s", node, kCopied[k]);
+        snprintf(from, sizeof from, "/nodes/%lld/%s", (long long)from_node, kCopied[k]);
         snprintf(to, sizeof to, "/nodes/%lld/%s", (long long)id, kCopied[k]);
         gltf_copy_json(s->doc, from, to);
     }
     return id;
 }
 
-static int annotate_node(scene *s, uint32_t node, uint32_t m, const lodchain_summary *chain, const int64_t *lod_nodes,
-                         const lodchain_options *o, double diagonal, lodchain_summary *out, lp_error *err)
+/* MSFT_lod and the switching metadata on document node `node`, whose world
+ * transform is scene node `placed`'s. */
+static int annotate_node(scene *s, int64_t node_id, uint32_t placed, uint32_t m, const lodchain_summary *chain,
+                         const int64_t *lod_nodes, const lodchain_options *o, double diagonal, lodchain_summary *out,
+                         lp_error *err)
 {
-    const double scale = scene_max_scale(s->nodes[node].world);
+    const uint32_t node = (uint32_t)node_id;
+    const double scale = scene_max_scale(s->nodes[placed].world);
     const double radius = 0.5 * diagonal * scale;
     jsonw ids = {0}, coverage = {0}, meta = {0};
     jsonw_raw(&ids, "{\"ids\":[");
@@ -536,11 +601,16 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
             continue;
         }
         int64_t lod_nodes[SIMPLIFY_MAX_LEVELS];
+        int64_t carrier = mesh_carrier(s, n, err);
+        if (carrier < 0) {
+            rc = err->code ? err->code : LP_INVALID;
+            break;
+        }
         for (uint32_t k = 0; k < out->level_count && !rc; ++k) {
-            lod_nodes[k] = write_lod_node(s, n, out->levels[k].mesh, k + 1, err);
+            lod_nodes[k] = write_lod_node(s, n, carrier, out->levels[k].mesh, k + 1, err);
             if (lod_nodes[k] < 0) rc = err->code ? err->code : LP_INVALID;
         }
-        if (!rc) rc = annotate_node(s, n, m, out, lod_nodes, o, r->diagonal, out, err);
+        if (!rc) rc = annotate_node(s, carrier, n, m, out, lod_nodes, o, r->diagonal, out, err);
         out->nodes++;
     }
     if (!rc && out->nodes) gltf_use_extension(s->doc, "MSFT_lod", 0);
