@@ -109,6 +109,14 @@ test: deps
 	LODPIPE_BIN=$(abspath $(BUILD)/asan/lodpipe) LODPIPE_BUILD=$(abspath $(BUILD)) \
 	LODPIPE_SHARED=$(SHARED) node --test --test-concurrency=2 tests/
 
+# ---- benchmarks: quality and speed against meshoptimizer, into bench/RESULTS.md --------
+# Measurements, not tests (about 40 minutes on this 2-core machine).
+bench: deps
+	$(MAKE) all hausdorff
+	@command -v python3 >/dev/null && python3 -c 'import numpy' 2>/dev/null || \
+	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends python3-numpy
+	python3 bench/run.py
+
 # The independent topology oracle (OpenMesh), used by tests/simplify.test.mjs.
 $(BUILD)/mesh_check: tests/tools/mesh_check.cpp
 	@mkdir -p $(BUILD)
