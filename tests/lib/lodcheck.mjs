@@ -716,6 +716,43 @@ const TRANSFORM_KEYS = ['matrix', 'translation', 'rotation', 'scale', 'skin', 'w
  *   hausdorff: run the CGAL soundness checks (default true)
  * Returns { problems, notes, stats }.
  */
+/**
+ * A node with a mesh AND children hands its mesh to a new child (the "carrier", README:
+ * Output format) that carries the chain. To check the chain with the same rules as
+ * everywhere else, fold each carrier back into its node in the parsed output: the node
+ * gets the carrier's mesh/skin/weights, MSFT_lod and extras again, animation channels
+ * retargeted to the carrier point back at it, and the carrier's slot is left empty. A
+ * carrier must have been added as the node's last child, with no transform, the input
+ * node's mesh (and skin/weights), and the node must have lost exactly those. Returns
+ * Map(carrier -> node) (the carrier's transform, none, is what its LOD nodes copy).
+ */
+export function foldCarriers(j, jin, nInNodes, notes) {
+  const carriers = new Map();
+  (j.nodes || []).forEach((n, i) => {
+    if (i >= nInNodes || !(jin.nodes[i]?.children || []).length || jin.nodes[i].mesh === undefined) return;
+    const kids = n.children || [];
+    const c = kids[kids.length - 1];
+    const cn = j.nodes[c];
+    if (!(c >= nInNodes) || !cn?.extensions?.MSFT_lod || n.mesh !== undefined) return;
+    if (cn.mesh !== jin.nodes[i].mesh) return;
+    if (['matrix', 'translation', 'rotation', 'scale', 'children', 'camera'].some((k) => cn[k] !== undefined)) return;
+    carriers.set(c, i);
+  });
+  for (const [c, i] of carriers) {
+    const n = j.nodes[i];
+    const cn = j.nodes[c];
+    n.children = n.children.slice(0, -1);
+    for (const k of ['mesh', 'skin', 'weights']) if (cn[k] !== undefined) n[k] = cn[k];
+    n.extensions = { ...(n.extensions || {}), MSFT_lod: cn.extensions.MSFT_lod };
+    if (cn.extras) n.extras = { ...(n.extras || {}), ...cn.extras };
+    if (n.extras?.lodpipe?.levels?.[0]?.node === c) n.extras.lodpipe.levels[0].node = i;
+    for (const a of j.animations || []) for (const ch of a.channels || []) if (ch.target?.node === c) ch.target.node = i;
+    j.nodes[c] = { name: cn.name };
+    notes.push(`node ${i} hands its mesh to carrier node ${c}; checked as if the chain were on node ${i}`);
+  }
+  return carriers;
+}
+
 export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_LADDER, camera = DEFAULT_CAMERA, hausdorff = true, minReduction = MIN_REDUCTION }) {
   const problems = Object.fromEntries(CHAIN_ASPECTS.map(([k]) => [k, []]));
   const notes = [];
@@ -730,6 +767,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
   const nInNodes = (jin.nodes || []).length;
   const nInMeshes = (jin.meshes || []).length;
   const nInAcc = (jin.accessors || []).length;
+  const carriers = foldCarriers(j, jin, nInNodes, notes);
   const nodes = j.nodes || [];
 
   // ---- validator
@@ -853,7 +891,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
     const chain = chains.get(m);
     const tag = `mesh ${m}${j.meshes[m]?.name ? ` "${j.meshes[m].name}"` : ''}`;
     if (L === null) continue;
-    expectedNewNodes += L * inst.length;
+    expectedNewNodes += L * inst.length + (L ? inst.filter((n) => [...carriers.values()].includes(n)).length : 0);
     expectedNewMeshes += L;
     if (L === 0) continue;
     for (const n of inst) {
@@ -872,8 +910,10 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
         if (isChild.has(id)) P('chain', `${lt}: is some node's child`);
         if (lod.children?.length) P('chain', `${lt}: has children ${lod.children}`);
         if (lod.extensions?.MSFT_lod) P('chain', `${lt}: carries MSFT_lod itself`);
+        const carried = [...carriers.values()].includes(n);
         for (const key of TRANSFORM_KEYS) {
-          if (!deepEqual(lod[key], nodes[n][key])) P('chain', `${lt}: ${key} ${JSON.stringify(lod[key])} differs from the node's ${JSON.stringify(nodes[n][key])}`);
+          const want = carried && ['matrix', 'translation', 'rotation', 'scale'].includes(key) ? undefined : nodes[n][key];
+          if (!deepEqual(lod[key], want)) P('chain', `${lt}: ${key} ${JSON.stringify(lod[key])} differs from ${carried ? 'the carrier' : 'the node'}'s ${JSON.stringify(want)}`);
         }
         if (lod.camera !== undefined) P('chain', `${lt}: has a camera`);
         const want = e.levels[k]?.mesh;
@@ -904,7 +944,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
   // ---- hierarchy
   for (const [, chain] of chains) {
     for (const n of chain.nodes) {
-      if (nodes[n].children?.length) {
+      if (nodes[n].children?.length && ![...carriers.values()].includes(n)) {
         const kids = nodes[n].children.map((c) => `${c}${nodes[c]?.name ? ` "${nodes[c].name}"` : ''}`);
         P('hierarchy', `node ${n}${nodes[n].name ? ` "${nodes[n].name}"` : ''} carries MSFT_lod and has children [${kids.join(', ')}]: a client that replaces the node by a LOD node drops them`);
       }
@@ -1111,7 +1151,10 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
         const slackAbs = SLACK_REL * diagonal;
         const limit = err + slackAbs;
         try {
-          const hd = hausdorffWithin(`${outFile}#node=${firstNode}`, `${outFile}#node=${id}`, limit, diagonal, slackAbs);
+          /* in the file itself, a folded node's mesh sits on its carrier */
+          const carrier = [...carriers].find(([, n]) => n === firstNode)?.[0];
+          const lod0 = carrier === undefined ? firstNode : carrier;
+          const hd = hausdorffWithin(`${outFile}#node=${lod0}`, `${outFile}#node=${id}`, limit, diagonal, slackAbs);
           stats.hausdorffSeconds += hd.seconds;
           const last = hd.runs[hd.runs.length - 1];
           const detail = `hausdorff in [${hd.lower}, ${hd.upper}], recorded error ${err}, error + slack ${limit}, diagonal ${diagonal}; ` +

@@ -1,10 +1,3 @@
-// PENDING (not run by `make test`; the file name keeps node --test from picking it up).
-// This suite checks issue 4's must-show 1-3 and passed on every asset except the two
-// whose nodes have a mesh AND children (CesiumMilkTruck, the default scene's terrain):
-// since the writer now hands such a node's mesh to a new child that carries the chain
-// (so clients that swap in LOD nodes keep the children), its structure / "nothing else
-// changed" / size / switching checkers (tests/lib/lodcheck.mjs) still expect the chain on
-// the node itself. Adapt them to the carrier node, then rename back to lodchain.test.mjs.
 // Issue 4 "must show" 1-3: the main job `lodpipe IN -o OUT` writes certified MSFT_lod chains, checked by
 // instruments that are not lodpipe's code (tests/lib/lodcheck.mjs: our raw reader, glTF-Transform, the
 // Khronos validator, the CGAL Hausdorff tool build/hausdorff/hausdorff).
