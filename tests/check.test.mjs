@@ -1,0 +1,70 @@
+// `lodpipe check FILE` (issue 4): the CI gate measures every LOD against its LOD0
+// independently of the certificate and exits 3 when a recorded error is exceeded. Shown
+// both ways: a real output passes; the same output with one recorded error shrunk to a
+// tenth (a false claim) is caught.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import path from 'node:path';
+import {
+  describeRun, oneLineErrorProblems, parseGlb, repoRoot, runHealthProblems, runLodpipe, skipWithoutBinary, tempDir,
+} from './lib/gltf.mjs';
+
+const skip = skipWithoutBinary();
+const scene = path.join(repoRoot, 'assets', 'default_scene.glb');
+
+/** Rewrites a GLB's JSON chunk (the BIN chunk is kept byte for byte). */
+function rewriteGlb(bytes, edit) {
+  const { json } = parseGlb(bytes);
+  edit(json);
+  const jsonLength = bytes.readUInt32LE(12);
+  const bin = bytes.subarray(20 + jsonLength);
+  let text = Buffer.from(JSON.stringify(json), 'utf8');
+  text = Buffer.concat([text, Buffer.alloc((4 - (text.length % 4)) % 4, 0x20)]);
+  const header = Buffer.alloc(20);
+  header.write('glTF', 0, 'latin1');
+  header.writeUInt32LE(2, 4);
+  header.writeUInt32LE(20 + text.length + bin.length, 8);
+  header.writeUInt32LE(text.length, 12);
+  header.write('JSON', 16, 'latin1');
+  return Buffer.concat([header, text, bin]);
+}
+
+test('check: a real output passes, a shrunk recorded error is caught (exit 3)', { skip }, (t) => {
+  const dir = tempDir(t);
+  const out = path.join(dir, 'scene.glb');
+  const made = runLodpipe([scene, '-o', out, '--quiet']);
+  assert.equal(made.status, 0, describeRun(made));
+
+  const good = runLodpipe(['check', out]);
+  assert.deepEqual(runHealthProblems(good), [], describeRun(good));
+  assert.equal(good.status, 0, describeRun(good));
+  const rows = good.stdout.split('\n').filter((l) => /^\d+\s+\d+\s+\d+/.test(l));
+  assert.ok(rows.length >= 4, `expected a table row per LOD, got:\n${good.stdout}`);
+  for (const row of rows) assert.match(row, /\byes$/, `every LOD within its record:\n${good.stdout}`);
+
+  // a false claim: node of the first chain, level 1, error divided by 10
+  const bytes = fs.readFileSync(out);
+  let victim = null;
+  const tampered = rewriteGlb(bytes, (json) => {
+    const n = json.nodes.findIndex((node) => node.extras?.lodpipe?.levels?.length > 1);
+    victim = n;
+    json.nodes[n].extras.lodpipe.levels[1].error /= 10;
+  });
+  assert.notEqual(victim, null);
+  const bad = path.join(dir, 'tampered.glb');
+  fs.writeFileSync(bad, tampered);
+  const caught = runLodpipe(['check', bad]);
+  assert.deepEqual(runHealthProblems(caught), [], describeRun(caught));
+  assert.equal(caught.status, 3, describeRun(caught));
+  assert.deepEqual(oneLineErrorProblems(caught.stderr), [], describeRun(caught));
+  assert.match(caught.stdout, new RegExp(`^${victim}\\s+1\\s+.*NO: exceeds the recorded error`, 'm'));
+});
+
+test('check: a file without LOD chains says so and exits 0; a bad file is exit 2', { skip }, () => {
+  const plain = runLodpipe(['check', scene]);
+  assert.equal(plain.status, 0, describeRun(plain));
+  assert.match(plain.stdout, /no LOD chains/);
+  const broken = runLodpipe(['check', path.join(repoRoot, '..', 'shared', 'assets', 'invalid', 'truncated.glb')]);
+  assert.equal(broken.status, 2, describeRun(broken));
+});
