@@ -167,9 +167,9 @@ static int output_name_ok(const char *out)
     return (n > 4 && strcasecmp(out + n - 4, ".glb") == 0) || (n > 5 && strcasecmp(out + n - 5, ".gltf") == 0);
 }
 
-static int cmd_convert(const cli *c)
+/* The output must be a .glb or .gltf and, without --force, not the input. */
+static int output_usable(const cli *c, const char *in, const char *out)
 {
-    const char *in = c->operands[0], *out = c->operands[1];
     if (!output_name_ok(out)) {
         fprintf(stderr, "lodpipe: %s: the output name must end in .glb or .gltf\n", out);
         return LP_USAGE;
@@ -178,14 +178,17 @@ static int cmd_convert(const cli *c)
         fprintf(stderr, "lodpipe: %s: refusing to overwrite the input (use --force)\n", out);
         return LP_USAGE;
     }
-    scene s;
-    int rc = load(c, in, &s);
-    if (rc) return rc;
+    return LP_OK;
+}
+
+/* Serializes the document and writes every file all-or-nothing. */
+static int write_document(const gltf_doc *doc, const char *out)
+{
     gltf_out_file *files = NULL;
     size_t count = 0;
     char msg[512];
     lp_error err = {0, ""};
-    rc = gltf_serialize(s.doc, out, &files, &count, msg, sizeof msg);
+    int rc = gltf_serialize(doc, out, &files, &count, msg, sizeof msg);
     if (rc) {
         lp_fail(&err, rc, "%s", msg);
         rc = report(out, &err);
@@ -194,6 +197,18 @@ static int cmd_convert(const cli *c)
     }
     gltf_free_files(files, count);
     free(files);
+    return rc;
+}
+
+static int cmd_convert(const cli *c)
+{
+    const char *in = c->operands[0], *out = c->operands[1];
+    int usage = output_usable(c, in, out);
+    if (usage) return usage;
+    scene s;
+    int rc = load(c, in, &s);
+    if (rc) return rc;
+    rc = write_document(s.doc, out);
     scene_free(&s);
     return rc;
 }
@@ -367,14 +382,8 @@ static int cmd_simplify(const cli *c)
 static int cmd_lod(const cli *c)
 {
     const char *in = c->operands[0], *out = c->output;
-    if (!output_name_ok(out)) {
-        fprintf(stderr, "lodpipe: %s: the output name must end in .glb or .gltf\n", out);
-        return LP_USAGE;
-    }
-    if (!c->force && output_same_file(in, out)) {
-        fprintf(stderr, "lodpipe: %s: refusing to overwrite the input (use --force)\n", out);
-        return LP_USAGE;
-    }
+    int usage = output_usable(c, in, out);
+    if (usage) return usage;
     scene s;
     int rc = load(c, in, &s);
     if (rc) return rc;
@@ -447,18 +456,7 @@ static int cmd_lod(const cli *c)
         scene_free(&s);
         return rc;
     }
-    gltf_out_file *files = NULL;
-    size_t count = 0;
-    char msg[512];
-    rc = gltf_serialize(s.doc, out, &files, &count, msg, sizeof msg);
-    if (rc) {
-        lp_fail(&err, rc, "%s", msg);
-        rc = report(out, &err);
-    } else if ((rc = output_write_all(out, files, count, &err)) != 0) {
-        rc = report(out, &err);
-    }
-    gltf_free_files(files, count);
-    free(files);
+    rc = write_document(s.doc, out);
     if (!rc && c->json) fputs(j.failed ? "{}\n" : j.text, stdout);
     jsonw_free(&j);
     scene_free(&s);
