@@ -44,6 +44,8 @@ import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import { spawnSync } from 'node:child_process';
+// The CGAL tool's runner and its proven "H <= limit" decision (shared with the LOD-chain suite).
+import { HAUSDORFF, hausdorffWithin, runHausdorff } from './lib/lodcheck.mjs';
 import {
   corpusPath, describeRun, lodpipeBin, manifestInputs, readDocument, readRaw, repoRoot, runHealthProblems, runLodpipe,
   successStderrProblems, tempDir,
@@ -53,7 +55,6 @@ import {
 // Configuration
 
 const BUILD = process.env.LODPIPE_BUILD || path.join(repoRoot, 'build');
-const HAUSDORFF = path.join(BUILD, 'hausdorff', 'hausdorff');
 const MESH_CHECK_SRC = path.join(repoRoot, 'tests', 'tools', 'mesh_check.cpp');
 const DEFAULT_FRACTIONS = [0.01, 0.03, 0.07, 0.15];
 const SLACK_REL = 1e-7; // absolute slack for float printing, x diagonal
@@ -63,7 +64,6 @@ const DIAG_MATCH_TOL = 1e-6; // recorded diagonal vs level 0's bbox diagonal (bo
 const FAST_BIN = process.env.LODPIPE_BIN_FAST || '';
 const FAST_MIN_TRIANGLES = Number(process.env.LODPIPE_FAST_MIN_TRIANGLES || 100000);
 const SIMPLIFY_TIMEOUT_MS = Number(process.env.LODPIPE_SIMPLIFY_TIMEOUT_MS || 900000);
-const HAUSDORFF_TIMEOUT_MS = Number(process.env.LODPIPE_HAUSDORFF_TIMEOUT_MS || 600000);
 const ONLY = (process.env.LODPIPE_SIMPLIFY_ONLY || '').split(',').map((s) => s.trim()).filter(Boolean);
 
 const fmt = (x, d = 4) => (typeof x === 'number' && Number.isFinite(x) ? Number(x.toPrecision(d)).toString() : String(x));
@@ -119,54 +119,6 @@ function meshCheck(objFile) {
     throw new Error(`mesh_check ${path.basename(objFile)}: ${j?.error || r.error || r.stderr || `status ${r.status}`}`);
   }
   return j;
-}
-
-function runHausdorff(args) {
-  const t0 = Date.now();
-  const r = spawnSync(HAUSDORFF, args, { encoding: 'utf8', timeout: HAUSDORFF_TIMEOUT_MS, maxBuffer: 64 << 20 });
-  let j = null;
-  try {
-    j = JSON.parse(r.stdout);
-  } catch {
-    /* reported below */
-  }
-  if (r.status !== 0 || !j || j.error) {
-    throw new Error(`hausdorff ${args.join(' ')}: ${j?.error || r.error || r.stderr || `status ${r.status}`} (signal ${r.signal})`);
-  }
-  j.wall = (Date.now() - t0) / 1000;
-  return j;
-}
-
-/**
- * Decide "two-sided H(A, B) <= limit" with the CGAL tool's branch and bound (`--within`).
- * A pass is PROVEN (hausdorff_upper <= limit, no work cap); a failure is PROVEN when a distance
- * > limit was found (lower = "hausdorff" field). Otherwise the run is repeated with an error tolerance
- * below the float slack and a larger work cap; what remains open is reported as 'open'.
- * diagA: bbox diagonal of A's referenced vertices (the tool's --within is relative to it).
- * Returns { verdict: 'pass'|'fail'|'open', lower, upper, seconds, runs }.
- */
-function hausdorffWithin(a, b, limit, diagA, slackAbs) {
-  const rel = (limit / diagA) * (1 - 1e-9); // slightly inside the limit: the tool's diagonal may round differently
-  const attempts = [
-    ['--within', String(rel)],
-    ['--within', String(rel), '--err-abs', String(Math.max(slackAbs / 4, limit * 1e-9)), '--max-work', '2e9'],
-  ];
-  const runs = [];
-  let seconds = 0;
-  for (const extra of attempts) {
-    const j = runHausdorff([...extra, a, b]);
-    runs.push(j);
-    seconds += j.wall;
-    const upper = j.hausdorff_upper === null || j.hausdorff_upper === undefined ? Infinity : Number(j.hausdorff_upper);
-    const lower = Number(j.hausdorff);
-    if (lower > limit) return { verdict: 'fail', lower, upper, seconds, runs };
-    if (!j.capped && upper <= limit) return { verdict: 'pass', lower, upper, seconds, runs };
-  }
-  const last = runs[runs.length - 1];
-  return {
-    verdict: 'open', lower: Number(last.hausdorff),
-    upper: last.hausdorff_upper === null ? Infinity : Number(last.hausdorff_upper), seconds, runs,
-  };
 }
 
 // ---------------------------------------------------------------------------------------------
