@@ -457,10 +457,8 @@ static int annotate_node(scene *s, int64_t node_id, uint32_t placed, uint32_t m,
 
 /* ---- morph targets ----------------------------------------------------------------- */
 
-/* One mesh's triangle primitives with target t applied at weight 1 (t < 0:
- * the base shape), the triangles of LOD0 (level == NULL) or of a level. */
-static int morphed_mesh(const scene *s, uint32_t m, const weld_result *w, const simplify_level *level, int t,
-                        float **positions, uint32_t **triangles, measure_mesh *out, lp_error *err)
+int lodchain_mesh_triangles(const scene *s, uint32_t m, const weld_result *w, const simplify_level *level, int t,
+                            float **positions, uint32_t **triangles, measure_mesh *out, lp_error *err)
 {
     const scene_mesh *mesh = &s->meshes[m];
     size_t vertices = 0, tris = 0;
@@ -533,13 +531,13 @@ static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, cons
         float *bp = NULL, *lp = NULL;
         uint32_t *bt = NULL, *lt = NULL;
         measure_mesh a, b;
-        rc = morphed_mesh(s, m, w, NULL, (int)t, &bp, &bt, &a, err);
+        rc = lodchain_mesh_triangles(s, m, w, NULL, (int)t, &bp, &bt, &a, err);
         for (uint32_t k = 0; k < out->level_count && !rc; ++k) {
             free(lp);
             free(lt);
             lp = NULL;
             lt = NULL;
-            rc = morphed_mesh(s, m, w, &r->levels[kept[k]], (int)t, &lp, &lt, &b, err);
+            rc = lodchain_mesh_triangles(s, m, w, &r->levels[kept[k]], (int)t, &lp, &lt, &b, err);
             if (!rc) out->morph_errors[(size_t)k * targets + t] = measure_two_sided(&a, &b, spacing);
         }
         free(bp);

@@ -29,6 +29,7 @@
 
 #include "scene.h"
 #include "simplify.h"
+#include "measure.h"
 #include "status.h"
 #include "switching.h"
 #include "weld.h"
@@ -61,5 +62,12 @@ typedef struct lodchain_summary {
 int lodchain_write(scene *s, uint32_t mesh, const weld_result *w, const simplify_result *r,
                    const lodchain_options *options, lodchain_summary *out, lp_error *err);
 void lodchain_summary_free(lodchain_summary *summary);
+
+/* Mesh m's triangle primitives (mesh space) as one triangle set for measure.h:
+ * LOD0's triangles when level is NULL (w may then be NULL too), else the
+ * level's; with morph target t applied at weight 1 when t >= 0. *positions
+ * and *triangles are the caller's to free, also after a failure. */
+int lodchain_mesh_triangles(const scene *s, uint32_t m, const weld_result *w, const simplify_level *level, int t,
+                            float **positions, uint32_t **triangles, measure_mesh *out, lp_error *err);
 
 #endif

@@ -463,31 +463,6 @@ static int cmd_lod(const cli *c)
     return rc;
 }
 
-/* All triangle primitives of a mesh as one triangle set (mesh space). */
-static int flatten_mesh(const scene_mesh *mesh, float **positions, uint32_t **triangles, measure_mesh *out)
-{
-    size_t vertices = 0, tris = 0;
-    for (uint32_t p = 0; p < mesh->primitive_count; ++p)
-        if (!mesh->primitives[p].skipped && mesh->primitives[p].triangle_count) {
-            vertices += mesh->primitives[p].vertex_count;
-            tris += mesh->primitives[p].triangle_count;
-        }
-    *positions = malloc((3 * vertices + 1) * sizeof **positions);
-    *triangles = malloc((3 * tris + 1) * sizeof **triangles);
-    if (!*positions || !*triangles) return -1;
-    size_t v = 0, t = 0;
-    for (uint32_t p = 0; p < mesh->primitive_count; ++p) {
-        const scene_primitive *pr = &mesh->primitives[p];
-        if (pr->skipped || !pr->triangle_count) continue;
-        memcpy(*positions + 3 * v, pr->positions, 3 * (size_t)pr->vertex_count * sizeof(float));
-        for (size_t i = 0; i < 3 * (size_t)pr->triangle_count; ++i) (*triangles)[3 * t + i] = (uint32_t)v + pr->triangles[i];
-        v += pr->vertex_count;
-        t += pr->triangle_count;
-    }
-    *out = (measure_mesh){*positions, (uint32_t)v, *triangles, (uint32_t)t};
-    return 0;
-}
-
 static int recorded_number(const gltf_doc *doc, const char *pointer, double *out)
 {
     char *text = gltf_get_json(doc, pointer);
@@ -509,6 +484,7 @@ static int cmd_check(const cli *c)
     int rc = load(c, in, &s);
     if (rc) return rc;
     int failed = 0, chains = 0;
+    lp_error err = {0, ""};
     printf("%-6s %-6s %-6s %-10s %-14s %-14s %s\n", "node", "level", "mesh", "triangles", "recorded", "measured", "ok");
     for (uint32_t n = 0; n < s.node_count && !rc; ++n) {
         const scene_node *node = &s.nodes[n];
@@ -520,7 +496,7 @@ static int cmd_check(const cli *c)
         measure_mesh a, b;
         bvh a_tree;
         memset(&a_tree, 0, sizeof a_tree);
-        if (flatten_mesh(base, &bp, &bt, &a) ||
+        if (lodchain_mesh_triangles(&s, (uint32_t)node->mesh, NULL, NULL, -1, &bp, &bt, &a, &err) ||
             bvh_build(&a_tree, a.positions, a.vertex_count, a.triangles, a.triangle_count) != BVH_OK)
             rc = LP_INVALID;
         const double spacing = base->diagonal / 400.0;
@@ -538,7 +514,7 @@ static int cmd_check(const cli *c)
             free(lt);
             lp = NULL;
             lt = NULL;
-            if (flatten_mesh(&s.meshes[lod->mesh], &lp, &lt, &b)) {
+            if (lodchain_mesh_triangles(&s, (uint32_t)lod->mesh, NULL, NULL, -1, &lp, &lt, &b, &err)) {
                 rc = LP_INVALID;
                 break;
             }
