@@ -28,7 +28,7 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { spawnSync } from 'node:child_process';
 import {
-  corpusPath, describeRun, lodpipeBin, manifestInputs, readRaw, repoRoot, runHealthProblems, runLodpipe, tempDir,
+  corpusPath, describeRun, lodpipeBin, manifestInputs, readRaw, repoRoot, runHealthProblems, runLodpipe, tempDir, featureSkipReason,
 } from './lib/gltf.mjs';
 import { modeOf, sceneNodes } from './lib/lodcheck.mjs';
 import { buildFixture, writeFixture } from './lib/lodfixture.mjs';
@@ -348,19 +348,8 @@ test('self-test: the client checks pass a correct hand-made chain and catch plan
 // ---------------------------------------------------------------------------------------------
 // Every output
 
-function isExecutable(f) {
-  try {
-    fs.accessSync(f, fs.constants.X_OK);
-    return fs.statSync(f).isFile();
-  } catch {
-    return false;
-  }
-}
 function skipReason() {
-  if (!isExecutable(lodpipeBin)) return `lodpipe binary not found at ${lodpipeBin} (build it or set LODPIPE_BIN)`;
-  const r = spawnSync(lodpipeBin, ['--help'], { encoding: 'utf8', timeout: 60000 });
-  if (!/-o OUT/.test(`${r.stdout}${r.stderr}`)) return `${lodpipeBin} --help does not document the main job (-o OUT) yet`;
-  return false;
+  return featureSkipReason(/-o OUT/, 'document the main job (-o OUT)');
 }
 const skip = skipReason();
 

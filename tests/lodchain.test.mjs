@@ -41,8 +41,7 @@ import os from 'node:os';
 import path from 'node:path';
 import { spawnSync } from 'node:child_process';
 import {
-  corpusPath, describeRun, lodpipeBin, manifestInputs, readRaw, repoRoot, runHealthProblems, runLodpipe,
-  successStderrProblems, tempDir,
+  corpusPath, describeRun, lodpipeBin, manifestInputs, readRaw, repoRoot, runHealthProblems, runLodpipe, successStderrProblems, tempDir, featureSkipReason, isExecutable,
 } from './lib/gltf.mjs';
 import {
   CHAIN_ASPECTS, DEFAULT_CAMERA, DEFAULT_LADDER, HAUSDORFF, analyzeChain, dropRuleProblems, edgeCensus, expectedSwitching,
@@ -59,20 +58,11 @@ const DEFAULT_SCENE = path.join(repoRoot, 'assets', 'default_scene.glb');
 
 const hausdorffSkip = hausdorffAvailable() ? false : `${HAUSDORFF} not built (run make hausdorff)`;
 
-function isExecutable(f) {
-  try {
-    fs.accessSync(f, fs.constants.X_OK);
-    return fs.statSync(f).isFile();
-  } catch {
-    return false;
-  }
-}
 
 /** Skip reason for the runs: the binary must exist and document the main job (`-o OUT`). */
 function mainJobSkipReason() {
-  if (!isExecutable(lodpipeBin)) return `lodpipe binary not found at ${lodpipeBin} (build it or set LODPIPE_BIN)`;
-  const r = spawnSync(lodpipeBin, ['--help'], { encoding: 'utf8', timeout: 60000 });
-  if (!/-o OUT/.test(`${r.stdout}${r.stderr}`)) return `${lodpipeBin} --help does not document the main job (-o OUT) yet`;
+  const missing = featureSkipReason(/-o OUT/, 'document the main job (-o OUT)');
+  if (missing) return missing;
   if (FAST_BIN && !isExecutable(FAST_BIN)) return `LODPIPE_BIN_FAST=${FAST_BIN} is not an executable`;
   return false;
 }

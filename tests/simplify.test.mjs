@@ -47,8 +47,7 @@ import { spawnSync } from 'node:child_process';
 // The CGAL tool's runner and its proven "H <= limit" decision (shared with the LOD-chain suite).
 import { HAUSDORFF, hausdorffWithin, runHausdorff } from './lib/lodcheck.mjs';
 import {
-  corpusPath, describeRun, lodpipeBin, manifestInputs, readDocument, readRaw, repoRoot, runHealthProblems, runLodpipe,
-  successStderrProblems, tempDir,
+  corpusPath, describeRun, lodpipeBin, manifestInputs, readDocument, readRaw, repoRoot, runHealthProblems, runLodpipe, successStderrProblems, tempDir, featureSkipReason, isExecutable,
 } from './lib/gltf.mjs';
 
 // ---------------------------------------------------------------------------------------------
@@ -69,20 +68,11 @@ const ONLY = (process.env.LODPIPE_SIMPLIFY_ONLY || '').split(',').map((s) => s.t
 const fmt = (x, d = 4) => (typeof x === 'number' && Number.isFinite(x) ? Number(x.toPrecision(d)).toString() : String(x));
 const pct = (x) => (Number.isFinite(x) ? `${(100 * x).toFixed(1)} %` : String(x));
 
-function isExecutable(f) {
-  try {
-    fs.accessSync(f, fs.constants.X_OK);
-    return fs.statSync(f).isFile();
-  } catch {
-    return false;
-  }
-}
 
 /** Reason to skip the corpus run, or false: the binary must exist and list `simplify` in --help. */
 function simplifySkipReason() {
-  if (!isExecutable(lodpipeBin)) return `lodpipe binary not found at ${lodpipeBin} (build it or set LODPIPE_BIN)`;
-  const r = spawnSync(lodpipeBin, ['--help'], { encoding: 'utf8', timeout: 60000 });
-  if (!/\bsimplify\b/.test(`${r.stdout}${r.stderr}`)) return `${lodpipeBin} --help does not list a simplify command yet`;
+  const missing = featureSkipReason(/\bsimplify\b/, 'list a simplify command');
+  if (missing) return missing;
   if (FAST_BIN && !isExecutable(FAST_BIN)) return `LODPIPE_BIN_FAST=${FAST_BIN} is not an executable`;
   return false;
 }

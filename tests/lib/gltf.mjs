@@ -40,6 +40,27 @@ export function manifestInputs(filter = () => true) {
   return loadManifest().files.filter((f) => /\.(gltf|glb)$/i.test(f.path)).filter(filter);
 }
 
+/** True when f is an executable regular file. */
+export function isExecutable(f) {
+  try {
+    fs.accessSync(f, fs.constants.X_OK);
+    return fs.statSync(f).isFile();
+  } catch {
+    return false;
+  }
+}
+
+/**
+ * Skip reason for a suite that needs the lodpipe binary to offer a feature, or false: the binary must
+ * exist and its --help must match `pattern` (`what` names the feature in the reason).
+ */
+export function featureSkipReason(pattern, what) {
+  if (!isExecutable(lodpipeBin)) return `lodpipe binary not found at ${lodpipeBin} (build it or set LODPIPE_BIN)`;
+  const r = spawnSync(lodpipeBin, ['--help'], { encoding: 'utf8', timeout: 60000 });
+  if (!pattern.test(`${r.stdout}${r.stderr}`)) return `${lodpipeBin} --help does not ${what} yet`;
+  return false;
+}
+
 export function binaryExists() {
   try {
     fs.accessSync(lodpipeBin, fs.constants.X_OK);
