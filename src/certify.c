@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "geom.h"
+#include "overlay.h"
 
 static vec3d vertex_of(const cert_original *o, uint32_t v)
 {
@@ -125,8 +126,101 @@ static void split4(const vec3d p[3], vec3d out[4][3])
     memcpy(out, pieces, sizeof pieces);
 }
 
-static int piece_a(const cert_original *o, face_filter *filter, const vec3d p[3], int depth, double eps,
-                   double accept, double *bound)
+/* ---- (a) overlay: the originals under F, flood-filled from F's corners ------ */
+
+#define OVERLAY_MAX_ORIGINALS 256 /* more originals under one face: subdivision instead */
+
+typedef struct flood {
+    uint32_t id[OVERLAY_MAX_ORIGINALS];
+    uint8_t required[OVERLAY_MAX_ORIGINALS];
+    uint32_t count;
+} flood;
+
+static int flood_add(flood *q, uint32_t t, int required)
+{
+    for (uint32_t i = 0; i < q->count; ++i)
+        if (q->id[i] == t) {
+            /* already seen: a required visit of a triangle first seen as an
+             * optional corner triangle makes it required */
+            q->required[i] |= (uint8_t)required;
+            return 1;
+        }
+    if (q->count == OVERLAY_MAX_ORIGINALS) return 0;
+    q->id[q->count] = t;
+    q->required[q->count++] = (uint8_t)required;
+    return 1;
+}
+
+/* The original triangle across t's edge (a, b), wound the same way (it runs
+ * b -> a), or UINT32_MAX when the edge is a border, non-manifold or the
+ * neighbour is wound the other way. */
+static uint32_t original_across(const cert_original *o, uint32_t t, uint32_t a, uint32_t b)
+{
+    uint32_t found = UINT32_MAX;
+    for (uint32_t i = o->vertex_offsets[a]; i < o->vertex_offsets[a + 1]; ++i) {
+        uint32_t g = o->vertex_triangles[i];
+        if (g == t) continue;
+        const uint32_t *gv = o->triangles + 3 * (size_t)g;
+        for (int k = 0; k < 3; ++k) {
+            if (gv[k] != b) continue;
+            if (gv[(k + 1) % 3] == a) {
+                if (found != UINT32_MAX) return UINT32_MAX; /* non-manifold */
+                found = g;
+            } else if (gv[(k + 2) % 3] == a) {
+                return UINT32_MAX; /* wound the other way, or non-manifold */
+            }
+        }
+    }
+    return found;
+}
+
+/* DESIGN.md §4 (a)2. F is partitioned by the projections of the originals
+ * under it; each piece is checked at its corners against its original. The
+ * accepted pieces cover F when they have no open edge inside F (every
+ * original edge entering F's interior has an accepted neighbour, same
+ * material, facing F's way, wound consistently) and one of them holds F's
+ * centroid: a closed union with no boundary inside F is all of F. */
+static int overlay_a(const cert_original *o, face_filter *filter, const vec3d p[3], const cert_tri *f, double accept,
+                     double *bound)
+{
+    overlay_subject sub;
+    if (!overlay_subject_init(&sub, p)) return 0;
+    flood q;
+    q.count = 0;
+    for (int k = 0; k < 3; ++k)
+        for (uint32_t i = o->vertex_offsets[f->vertex[k]]; i < o->vertex_offsets[f->vertex[k] + 1]; ++i)
+            if (!flood_add(&q, o->vertex_triangles[i], 0)) return 0;
+    double worst = 0.0;
+    int centroid = 0;
+    for (uint32_t i = 0; i < q.count; ++i) {
+        const uint32_t t = q.id[i];
+        const int ok = witness_ok(filter, t);
+        double m = INFINITY;
+        vec3d tri[3];
+        triangle_of(o, t, tri);
+        overlay_piece_result piece = ok ? overlay_piece(&sub, tri, &m, NULL, NULL) : OVERLAY_UNUSABLE;
+        if (piece != OVERLAY_PIECE || !(m <= accept)) {
+            /* a corner triangle that does not reach into F is no concern; a
+             * piece that is too far, or a required neighbour missing, is */
+            if (q.required[i] || (piece == OVERLAY_PIECE && ok)) return 0;
+            continue;
+        }
+        if (m > worst) worst = m;
+        if (!centroid) centroid = overlay_covers_centroid(&sub, tri);
+        const uint32_t *tv = o->triangles + 3 * (size_t)t;
+        for (int k = 0; k < 3; ++k) {
+            if (!overlay_edge_enters(&sub, tri[k], tri[(k + 1) % 3])) continue;
+            uint32_t g = original_across(o, t, tv[k], tv[(k + 1) % 3]);
+            if (g == UINT32_MAX || !flood_add(&q, g, 1)) return 0;
+        }
+    }
+    if (!centroid) return 0;
+    if (worst > *bound) *bound = worst;
+    return 1;
+}
+
+static int piece_a(const cert_original *o, face_filter *filter, const cert_tri *f, const vec3d p[3], int depth,
+                   double eps, double accept, double *bound)
 {
     vec3d c;
     double r;
@@ -159,11 +253,18 @@ static int piece_a(const cert_original *o, face_filter *filter, const vec3d p[3]
         if (best > *bound) *bound = best;
         return 1;
     }
+    if (depth == 0) {
+        double overlay_bound = 0.0;
+        if (overlay_a(o, filter, p, f, accept, &overlay_bound)) {
+            if (overlay_bound > *bound) *bound = overlay_bound;
+            return 1;
+        }
+    }
     if (depth >= CERT_MAX_DEPTH) return 0;
     vec3d pieces[4][3];
     split4(p, pieces);
     for (int k = 0; k < 4; ++k)
-        if (!piece_a(o, filter, pieces[k], depth + 1, eps, accept, bound)) return 0;
+        if (!piece_a(o, filter, f, pieces[k], depth + 1, eps, accept, bound)) return 0;
     return 1;
 }
 
@@ -189,7 +290,7 @@ int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bou
             }
         }
     }
-    return piece_a(o, &filter, p, 0, eps, accept, bound);
+    return piece_a(o, &filter, f, p, 0, eps, accept, bound);
 }
 
 /* ---- (b): an original triangle against the level's faces -------------------- */
@@ -250,6 +351,72 @@ static double corners_within(const cert_tri *f, const vec3d p[3], const vec3d *c
     return sqrt(worst);
 }
 
+/* ---- (b) overlay: t partitioned by the projections of the candidate faces -- */
+
+#define OVERLAY_MAX_FACES 512
+
+/* The face among s->faces across f's edge (a, b): it runs b -> a. */
+static uint32_t face_across(const cover_state *s, uint32_t a, uint32_t b)
+{
+    uint32_t found = UINT32_MAX;
+    for (uint32_t i = 0; i < s->count; ++i) {
+        const uint32_t *fv = s->faces[i].vertex;
+        for (int k = 0; k < 3; ++k)
+            if (fv[k] == b && fv[(k + 1) % 3] == a) {
+                if (found != UINT32_MAX) return UINT32_MAX; /* non-manifold */
+                found = i;
+            }
+    }
+    return found;
+}
+
+/* DESIGN.md §4 (b)2, the same argument as overlay_a with the roles swapped:
+ * every candidate face of t's kind whose projected piece of t is within eps
+ * is accepted; the accepted ones must have no open edge inside t and one of
+ * them must hold t's centroid. They become t's registration, so there may be
+ * at most CERT_MAX_WITNESSES of them. (Proving a piece that its own face does
+ * not hold against the other faces was tried: on the bunny at 1/64 % it
+ * removed 2 more triangles of 69,451. Such pieces are genuinely too far.) */
+static int overlay_b(cover_state *s, const vec3d p[3])
+{
+    if (s->o->degenerate[s->t] || s->count > OVERLAY_MAX_FACES || s->used_count != 0) return 0;
+    overlay_subject sub;
+    if (!overlay_subject_init(&sub, p)) return 0;
+    vec3d c;
+    double r;
+    geom_triangle_enclosing_ball(&p[0], &p[1], &p[2], &c, &r);
+    double value[OVERLAY_MAX_FACES];
+    uint32_t accepted[CERT_MAX_WITNESSES], naccepted = 0;
+    int centroid = 0;
+    for (uint32_t i = 0; i < s->count; ++i) {
+        const cert_tri *f = &s->faces[i];
+        value[i] = INFINITY;
+        const double reach = s->accept + r;
+        if (!face_may_witness(s, f) || box_distance2(f, &c) > reach * reach) continue;
+        vec3d w[3];
+        for (int k = 0; k < 3; ++k) w[k] = geom_vec3d_from_doubles(f->p[k]);
+        double m;
+        if (overlay_piece(&sub, w, &m, NULL, NULL) != OVERLAY_PIECE || !(m <= s->accept)) continue;
+        if (naccepted == CERT_MAX_WITNESSES) return 0;
+        accepted[naccepted++] = i;
+        value[i] = m;
+        if (!centroid) centroid = overlay_covers_centroid(&sub, w);
+    }
+    if (!centroid) return 0;
+    for (uint32_t j = 0; j < naccepted; ++j) {
+        const cert_tri *f = &s->faces[accepted[j]];
+        for (int k = 0; k < 3; ++k) {
+            vec3d a = geom_vec3d_from_doubles(f->p[k]), b = geom_vec3d_from_doubles(f->p[(k + 1) % 3]);
+            if (!overlay_edge_enters(&sub, a, b)) continue;
+            uint32_t g = face_across(s, f->vertex[k], f->vertex[(k + 1) % 3]);
+            if (g == UINT32_MAX || !(value[g] <= s->accept)) return 0;
+        }
+    }
+    for (uint32_t j = 0; j < naccepted; ++j)
+        if (!use_face(s, s->faces[accepted[j]].id, value[accepted[j]])) return 0;
+    return 1;
+}
+
 /* One piece of t: a face that holds all its corners (faces t used before
  * first, then faces already used for other pieces, then any), else the
  * Lipschitz test at the ball's centre, else four smaller pieces. */
@@ -292,7 +459,9 @@ static int piece_b(cover_state *s, const vec3d p[3], int depth)
     }
     if (best + r <= s->accept && use_face(s, best_id, best + r)) return 1;
     /* The centre lies in the piece: if it is not within eps, nothing helps. */
-    if (depth >= CERT_MAX_DEPTH || !(best <= s->accept)) return 0;
+    if (!(best <= s->accept)) return 0;
+    if (depth == 0 && overlay_b(s, p)) return 1;
+    if (depth >= CERT_MAX_DEPTH) return 0;
     vec3d pieces[4][3];
     split4(p, pieces);
     for (int k = 0; k < 4; ++k)

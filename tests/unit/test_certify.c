@@ -500,6 +500,11 @@ static void test_cover_fuzz(void)
             p0.z = bumpy(p0.x, p0.y) + rng_uniform(-lift, lift);
             p1.z = bumpy(p1.x, p1.y) + rng_uniform(-lift, lift);
             faces[count] = make_face(centre, p0, p1, 0, 100 + (uint32_t)s);
+            /* ids as in a level: the centre and the rim vertices are shared,
+             * so the overlay's closing-up test can find neighbours */
+            faces[count].vertex[0] = 5000;
+            faces[count].vertex[1] = 5001 + (uint32_t)s;
+            faces[count].vertex[2] = 5001 + (uint32_t)((s + 1) % sides);
             count++;
         }
         uint32_t used[CERT_MAX_WITNESSES], used_count = 99;
@@ -712,6 +717,166 @@ static void test_translated_far(void)
     om_free(&m);
 }
 
+/* ---- the overlay partition test (DESIGN.md §4 (a)2, (b)2) ------------------------ */
+
+/* A level "tent" of four faces over the plane z = 0: centre c (id 900) and
+ * four rim corners (ids 901..904) far out, every corner at height h (so each
+ * face is parallel to the plane and h above it). skip < 4 leaves that face
+ * out; raise lifts the centre by that much more; flip winds every face the
+ * other way. */
+static uint32_t tent(cert_tri faces[4], vec3d c, double h, int skip, double raise, int flip, vec3d shift)
+{
+    const vec3d rim[4] = {geom_vec3d(c.x + 5, c.y, h), geom_vec3d(c.x, c.y + 5, h), geom_vec3d(c.x - 5, c.y, h),
+                          geom_vec3d(c.x, c.y - 5, h)};
+    const vec3d centre = geom_vec3d(c.x, c.y, h + raise);
+    uint32_t n = 0;
+    for (int s = 0; s < 4; ++s) {
+        if (s == skip) continue;
+        vec3d a = geom_add(centre, shift), b = geom_add(rim[s], shift), d = geom_add(rim[(s + 1) % 4], shift);
+        uint32_t ia = 900, ib = 901 + (uint32_t)s, id = 901 + (uint32_t)((s + 1) % 4);
+        faces[n] = flip ? make_face(a, d, b, 0, 40 + (uint32_t)s) : make_face(a, b, d, 0, 40 + (uint32_t)s);
+        faces[n].vertex[0] = ia;
+        faces[n].vertex[1] = flip ? id : ib;
+        faces[n].vertex[2] = flip ? ib : id;
+        n++;
+    }
+    return n;
+}
+
+/* (b) by overlay. One big original triangle in z = 0; the level is the tent
+ * h = 0.4 eps above it, whose four fold lines cross the triangle. Every
+ * point of t is 0.4 eps from the tent, but a piece straddling a fold line is
+ * within eps of no SINGLE face unless it is smaller than ~eps, which depth-4
+ * subdivision (pieces of 1/16 of a unit triangle, eps = 1e-3) never reaches:
+ * only the overlay (pieces cut along the projected fold lines) proves it.
+ * Then the ways it must fail: a face missing (a real hole: sampled > eps),
+ * the tent's top lifted beyond eps, the tent turned over; all of it also at
+ * 1e5. */
+static void overlay_cover_case(vec3d shift)
+{
+    orig_mesh m;
+    om_init(&m, 3, 1);
+    om_vertex(&m, shift.x, shift.y, shift.z);
+    om_vertex(&m, 1 + shift.x, shift.y, shift.z);
+    om_vertex(&m, shift.x, 1 + shift.y, shift.z);
+    om_tri(&m, 0, 1, 2, 0);
+    CHECK(om_build(&m) == 0, "cert_original_init");
+    if (!m.built) {
+        om_free(&m);
+        return;
+    }
+    const double eps = 1e-3, h = 0.4 * eps;
+    const vec3d c = geom_vec3d(0.3, 0.3, 0);
+    /* shift the float-rounded original's corners back: the faces are built
+     * in double around the same place */
+    cert_tri faces[4];
+    uint32_t used[CERT_MAX_WITNESSES], n = 0;
+    double bound = -1;
+    uint32_t count = tent(faces, c, h, -1, 0, 0, shift);
+    int ok = cert_cover(&m.o, 0, faces, count, eps, NULL, 0, used, &n, &bound);
+    CHECK(ok, "the tent covers t (only the overlay can prove it)");
+    if (ok) {
+        cert_tri chosen[CERT_MAX_WITNESSES];
+        uint32_t k = 0;
+        for (uint32_t i = 0; i < n; ++i)
+            for (uint32_t j = 0; j < count; ++j)
+                if (faces[j].id == used[i]) chosen[k++] = faces[j];
+        double sampled = sampled_original_to_faces(&m, 0, chosen, k, 64);
+        CHECK(k == n && n == 4, "all four faces reach into t and are registered: %u", n);
+        CHECK(sampled <= bound + slack(geom_length(shift)) && bound <= eps && bound >= h - 1e-9,
+              "sampled %.17g <= bound %.17g <= eps (h %g)", sampled, bound, h);
+    }
+    /* the verifier's re-run accepts it with the registered faces */
+    cert_tri reg[CERT_MAX_WITNESSES];
+    for (uint32_t i = 0; i < n && i < CERT_MAX_WITNESSES; ++i)
+        for (uint32_t j = 0; j < count; ++j)
+            if (faces[j].id == used[i]) reg[i] = faces[j];
+    double vbound = -1;
+    if (ok) CHECK(cert_cover_within(&m.o, 0, reg, n, bound, &vbound), "cert_cover_within accepts at the bound");
+
+    for (int skip = 0; skip < 4; ++skip) {
+        count = tent(faces, c, h, skip, 0, 0, shift);
+        double sampled = sampled_original_to_faces(&m, 0, faces, count, 64);
+        CHECK(sampled > eps, "a missing face leaves points of t farther than eps: %g", sampled);
+        CHECK(!cert_cover(&m.o, 0, faces, count, eps, NULL, 0, used, &n, &bound),
+              "covered with face %d missing (sampled %g > eps)", skip, sampled);
+    }
+    count = tent(faces, c, h, -1, 2 * eps, 0, shift);
+    CHECK(sampled_original_to_faces(&m, 0, faces, count, 64) > eps, "the lifted tent is farther than eps");
+    CHECK(!cert_cover(&m.o, 0, faces, count, eps, NULL, 0, used, &n, &bound), "covered by a tent lifted beyond eps");
+    count = tent(faces, c, h, -1, 0, 1, shift);
+    CHECK(!cert_cover(&m.o, 0, faces, count, eps, NULL, 0, used, &n, &bound), "covered by back-facing faces");
+    om_free(&m);
+}
+
+static void test_overlay_cover(void)
+{
+    overlay_cover_case(geom_vec3d(0, 0, 0));
+    overlay_cover_case(geom_vec3d(1e5, -1e5, 1e5));
+}
+
+/* (a) by overlay. The original is a flat n x n grid of [0, 1]^2 in z = 0
+ * (optionally with one triangle missing); the face F spans three grid
+ * vertices and floats 0.4 eps above. Its pieces straddle many original edges,
+ * so subdivision cannot prove it at eps = 1e-3; the flood-filled overlay can.
+ * A hole under F, F overhanging the grid's border, or F raised beyond eps
+ * must be refused. */
+static void overlay_face_case(int hole, double raise, int overhang)
+{
+    orig_mesh m;
+    const uint32_t n = 8;
+    om_init(&m, (n + 1) * (n + 1), 2 * n * n);
+    for (uint32_t j = 0; j <= n; ++j)
+        for (uint32_t i = 0; i <= n; ++i) om_vertex(&m, (double)i / n, (double)j / n, 0);
+    for (uint32_t j = 0; j < n; ++j)
+        for (uint32_t i = 0; i < n; ++i) {
+            uint32_t a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+            if (hole && i == 3 && j == 2) {
+                om_tri(&m, a, d, c, 0);
+                continue;
+            }
+            om_tri(&m, a, b, d, 0);
+            om_tri(&m, a, d, c, 0);
+        }
+    CHECK(om_build(&m) == 0, "cert_original_init");
+    if (!m.built) {
+        om_free(&m);
+        return;
+    }
+    const double eps = 1e-3, h = 0.4 * eps;
+    /* corners at grid vertices (1,1), (7,1), (4,7) */
+    const uint32_t ids[3] = {1 * (n + 1) + 1, 1 * (n + 1) + 7, 7 * (n + 1) + 4};
+    vec3d p[3];
+    for (int k = 0; k < 3; ++k) {
+        p[k] = om_point(&m, ids[k]);
+        p[k].z = h + raise;
+    }
+    if (overhang) p[1].x = 1.3;
+    cert_tri f = make_face(p[0], p[1], p[2], 0, 0);
+    for (int k = 0; k < 3; ++k) f.vertex[k] = ids[k];
+    double bound = -1;
+    int ok = cert_face(&m.o, &f, eps, &bound);
+    double sampled = sampled_face_to_original(&m, p, 64, 0, NULL);
+    if (!hole && raise == 0 && !overhang) {
+        CHECK(ok, "F 0.4 eps above a grid is certified (only the overlay can prove it)");
+        if (ok)
+            CHECK(sampled <= bound + slack(1) && bound <= eps && bound >= h - 1e-9, "sampled %.17g <= bound %.17g <= eps",
+                  sampled, bound);
+    } else {
+        CHECK(sampled > eps, "the bad case really is farther than eps: %g", sampled);
+        CHECK(!ok, "certified F with hole %d raise %g overhang %d (sampled %g > eps)", hole, raise, overhang, sampled);
+    }
+    om_free(&m);
+}
+
+static void test_overlay_face(void)
+{
+    overlay_face_case(0, 0, 0);
+    overlay_face_case(1, 0, 0);
+    overlay_face_case(0, 2e-3, 0);
+    overlay_face_case(0, 0, 1);
+}
+
 int main(void)
 {
     RUN(test_obtuse_centroid_ball);
@@ -723,5 +888,7 @@ int main(void)
     RUN(test_thin_plate_cover);
     RUN(test_material_and_degenerate);
     RUN(test_translated_far);
+    RUN(test_overlay_cover);
+    RUN(test_overlay_face);
     return check_summary();
 }
