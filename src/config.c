@@ -48,6 +48,8 @@ static const key_spec kKeys[] = {
      "in [0, 1)"},
     {"lod.flip_cos", NULL, KIND_NUMBER, offsetof(lp_config, lod.flip_cos), -1, 1, 0, 1,
      "in [-1, 1)"},
+    {"lod.strict_intersections", NULL, KIND_BOOLEAN, offsetof(lp_config, lod.strict_intersections), 0, 1, 0, 0,
+     NULL},
     {"switching.pixel_error", "--pixel-error", KIND_NUMBER,
      offsetof(lp_config, switching.pixel_error), 0, INFINITY, 1, 1, "> 0"},
     {"switching.viewport_height", "--viewport-height", KIND_NUMBER,
@@ -82,6 +84,7 @@ void config_defaults(lp_config *c)
     memcpy(c->lod.levels, levels, sizeof levels);
     c->lod.min_reduction = 0.10;
     c->lod.flip_cos = 0.25;
+    c->lod.strict_intersections = 0;
     c->switching.pixel_error = 1.0;
     c->switching.viewport_height = 1080;
     c->switching.fov_y = 0.7853981633974483; /* pi / 4 */

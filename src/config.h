@@ -18,6 +18,9 @@
  *                               [0, 1)                                   0.10
  *                flip_cos       reject a collapse when a changed face's
  *                               normal turns to cos <= this; [-1, 1)     0.25
+ *                strict_intersections  test every collapse for
+ *                               self-intersections, not only where the
+ *                               original is thin                       false
  *   [switching]  pixel_error    p, pixels of screen error at the switching
  *                               distance; > 0                             1.0
  *                viewport_height  H, pixels; > 0                         1080
@@ -65,6 +68,7 @@ typedef struct lp_config {
         double levels[LP_CONFIG_MAX_LEVELS]; /* percent of the bbox diagonal; slots past level_count are 0 */
         double min_reduction;
         double flip_cos;
+        int strict_intersections; /* 0 or 1 */
     } lod;
     struct {
         double pixel_error;

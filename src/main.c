@@ -217,7 +217,7 @@ static int cmd_convert(const cli *c)
 static simplify_options simplify_options_of(const cli *c)
 {
     simplify_options opt = {c->levels, (uint32_t)c->config.lod.level_count, (uint32_t)c->config.run.threads,
-                            c->config.lod.flip_cos, 0};
+                            c->config.lod.flip_cos, 0, c->config.lod.strict_intersections};
     const char *verify = getenv("LODPIPE_VERIFY");
     opt.verify = verify && strcmp(verify, "0") != 0;
     return opt;

@@ -29,6 +29,7 @@
 #include "intersect.h"
 #include "quadric.h"
 #include "registry.h"
+#include "thin.h"
 
 #define NONE UINT32_MAX
 #define BATCH_SIZE 512      /* fixed: the result must not depend on the thread count */
@@ -133,6 +134,11 @@ typedef struct sim {
     registry reg;
     cert_original orig;
     uint8_t *death;
+    /* where the original is thin (another sheet within 2 eps): the only
+     * places the self-intersection test runs unless strict */
+    thin_map thin;
+    uint8_t *special; /* border or locked vertices */
+    int strict;
     double eps, flip_cos;
     int verify;
     uint32_t level;
@@ -396,6 +402,26 @@ static int star_crosses(const sim *s, scratch *sc, uint32_t u, uint32_t v, uint3
     return 0;
 }
 
+/* 1 when the collapse u -> v (u's faces in sc->faces_u) must be tested for
+ * self-intersections: strict mode, or the original is thin (thin.h) near the
+ * new star, whose box is that of u's ring. */
+static int star_is_thin(const sim *s, const scratch *sc, uint32_t v)
+{
+    if (s->strict) return 1;
+    double p[3], lo[3], hi[3];
+    vertex_position(s, v, p);
+    for (int a = 0; a < 3; ++a) lo[a] = hi[a] = p[a];
+    for (size_t i = 0; i < sc->faces_u.size; ++i)
+        for (int k = 0; k < 3; ++k) {
+            vertex_position(s, s->corner_vertex[3 * sc->faces_u.data[i] + k], p);
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = fmin(lo[a], p[a]);
+                hi[a] = fmax(hi[a], p[a]);
+            }
+        }
+    return thin_map_box(&s->thin, lo, hi);
+}
+
 /* Certifies the collapse u -> v. On success appends its records to the
  * thread's arena: changed face ids + bounds, then per re-certified original
  * (t, n, used[4]) + bound. Returns 1 accepted, 0 rejected (reason set). */
@@ -535,7 +561,7 @@ static void evaluate(const sim *s, scratch *sc, candidate *c)
             c->reason = SIMPLIFY_REJECT_FLIP;
             continue;
         }
-        if (star_crosses(s, sc, u, e->x, 0)) {
+        if (star_is_thin(s, sc, e->x) && star_crosses(s, sc, u, e->x, 0)) {
             if (sc->oom) return;
             c->reason = SIMPLIFY_REJECT_INTERSECT;
             continue;
@@ -651,7 +677,7 @@ static int commit(sim *s, const candidate *c)
     if (gather_faces(s, u, &sc->faces_u)) return sc->oom = 1, 0;
     /* faces committed earlier in this batch were not there when the candidate
      * was tested for crossings */
-    if (star_crosses(s, sc, u, v, s->batch_stamp)) return 0;
+    if (star_is_thin(s, sc, v) && star_crosses(s, sc, u, v, s->batch_stamp)) return 0;
     if (sc->oom) return 0;
     /* which of v's wedges replaces u's in each face: read from the faces on
      * edge (u, v), one per side (two for a seam) */
@@ -1032,6 +1058,8 @@ static void sim_free(sim *s)
     free(s->quadrics);
     free(s->face_commit_stamp);
     facegrid_free(&s->grid);
+    thin_map_free(&s->thin);
+    free(s->special);
     registry_free(&s->reg);
     cert_original_free(&s->orig);
     for (uint32_t t = 0; t <= MAX_THREADS; ++t) {
@@ -1070,6 +1098,7 @@ static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_mater
     s->nf = nf;
     s->flip_cos = o->flip_cos;
     s->verify = o->verify;
+    s->strict = o->strict_intersections;
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
     s->thread_count = o->threads ? o->threads : (cores > 0 ? (uint32_t)cores : 1);
     if (s->thread_count > MAX_THREADS) s->thread_count = MAX_THREADS;
@@ -1089,7 +1118,11 @@ static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_mater
     s->orig_stamp = calloc((size_t)nf + 1, sizeof *s->orig_stamp);
     s->quadrics = calloc((size_t)nv + 1, sizeof *s->quadrics);
     s->face_commit_stamp = calloc((size_t)nf + 1, sizeof *s->face_commit_stamp);
-    if (!s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next || !s->face_alive ||
+    s->special = malloc((size_t)nv + 1);
+    if (s->special)
+        for (uint32_t v = 0; v < nv; ++v)
+            s->special[v] = w->vertex_kind[v] == WELD_BORDER || w->vertex_kind[v] == WELD_LOCKED;
+    if (!s->special || !s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next || !s->face_alive ||
         !s->face_bound || !s->orig_bound || !s->vertex_first || !s->vertex_alive || !s->version ||
         !s->reject_version || !s->vertex_stamp || !s->vertex_read_stamp || !s->orig_stamp || !s->quadrics || !s->face_commit_stamp)
         return -1;
@@ -1193,7 +1226,10 @@ int simplify_mesh(const weld_result *w, const int64_t *primitive_material, const
         s->eps = options->fractions[k] * out->diagonal;
         level->eps = s->eps;
         memset(s->reject_version, 0xff, (size_t)w->vertex_count * sizeof *s->reject_version);
-        if (grid_rebuild(s)) {
+        thin_map_free(&s->thin);
+        if (grid_rebuild(s) ||
+            (!s->strict && thin_map_build(&s->thin, 2.0 * s->eps, w->positions, w->vertex_count, w->triangle_vertices,
+                                          s->nf, s->face_material, s->special))) {
             rc = lp_fail(err, LP_INVALID, "out of memory");
             goto done;
         }

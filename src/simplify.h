@@ -14,7 +14,8 @@
  * nothing is interpolated and all levels can share one vertex buffer), legal
  * by the vertex kinds of weld.h, the link condition, a degree floor, the
  * flip guard and a self-intersection test (no new face may cross another face
- * of the level: tested everywhere, DESIGN.md §5's strict mode); ordered by a position quadric; evaluated in batches whose
+ * of the level: tested where the original is thin, thin.h, or everywhere in
+ * strict mode, DESIGN.md §5); ordered by a position quadric; evaluated in batches whose
  * neighbourhoods are disjoint, certified in parallel and committed in a fixed
  * order, so the result does not depend on the thread count. A rejected
  * candidate is retried only after its neighbourhood changes. */
@@ -34,6 +35,7 @@ typedef struct simplify_options {
     uint32_t threads;         /* 0: one per online core */
     double flip_cos;          /* reject when a changed face's normal turns to cos <= this (0.25) */
     int verify;               /* re-check the invariants after every commit (slow) */
+    int strict_intersections; /* self-intersection test everywhere, not only where the original is thin */
 } simplify_options;
 
 enum {

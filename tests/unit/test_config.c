@@ -316,7 +316,7 @@ typedef struct error_case {
 
 static const error_case kErrors[] = {
     /* unknown key, unknown table */
-    {"[lod]\nlevels = [1]\nlevel = 3\n", LP_USAGE, 3, ": lod.level: unknown key (known in [lod]: levels, min_reduction, flip_cos)"},
+    {"[lod]\nlevels = [1]\nlevel = 3\n", LP_USAGE, 3, ": lod.level: unknown key (known in [lod]: levels, min_reduction, flip_cos, strict_intersections)"},
     {"threads = 4\n", LP_USAGE, 1, ": threads: unknown key; did you mean run.threads?"},
     {"[draco]\nbits = 4\n", LP_USAGE, 2, ": draco.bits: unknown key"},
     {"\n[lods]\nlevels = [1]\n", LP_USAGE, 2, ": lods: unknown table"},
@@ -551,6 +551,7 @@ static const char kDefaultToml[] =
     "levels = [1, 3, 7, 15]\n"
     "min_reduction = 0.1\n"
     "flip_cos = 0.25\n"
+    "strict_intersections = false\n"
     "\n"
     "[switching]\n"
     "pixel_error = 1\n"
@@ -571,7 +572,7 @@ static const char kDefaultToml[] =
     "fallback = false\n";
 
 static const char kDefaultJson[] =
-    "{\"lod\":{\"levels\":[1, 3, 7, 15],\"min_reduction\":0.1,\"flip_cos\":0.25},"
+    "{\"lod\":{\"levels\":[1, 3, 7, 15],\"min_reduction\":0.1,\"flip_cos\":0.25,\"strict_intersections\":false},"
     "\"switching\":{\"pixel_error\":1,\"viewport_height\":1080,\"fov_y\":0.7853981633974483},"
     "\"run\":{\"threads\":0},"
     "\"draco\":{\"enabled\":false,\"position_bits\":14,\"normal_bits\":10,\"texcoord_bits\":12,"
