@@ -13,7 +13,6 @@ void quadric_from_plane(quadric *q, const double n[3], double d, double w)
     q->b1 = w * d * n[1];
     q->b2 = w * d * n[2];
     q->c = w * d * d;
-    q->weight = w;
 }
 
 void quadric_add(quadric *into, const quadric *q)
@@ -28,7 +27,6 @@ void quadric_add(quadric *into, const quadric *q)
     into->b1 += q->b1;
     into->b2 += q->b2;
     into->c += q->c;
-    into->weight += q->weight;
 }
 
 double quadric_error(const quadric *q, const double p[3])

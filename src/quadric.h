@@ -12,7 +12,6 @@ typedef struct quadric {
     double a00, a11, a22, a01, a02, a12; /* symmetric A = sum w n n^T */
     double b0, b1, b2;                   /* b = sum w d n */
     double c;                            /* sum w d^2 */
-    double weight;                       /* sum w */
 } quadric;
 
 /* The quadric of the plane n . x + d = 0 (n unit length) with weight w. */

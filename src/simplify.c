@@ -27,6 +27,7 @@
 #include "facegrid.h"
 #include "geom.h"
 #include "intersect.h"
+#include "keymap.h"
 #include "quadric.h"
 #include "registry.h"
 #include "thin.h"
@@ -93,8 +94,9 @@ typedef struct scratch {
     size_t nb_size, nb_cap;
     cert_tri *tris;
     size_t tris_cap;
-    uint32_t *face_seen, *orig_seen, *vertex_seen; /* stamps, sized nf / nf / nv */
-    uint32_t *face_index; /* where a face sits in cand_faces (valid while face_seen is current) */
+    uint32_t *vertex_seen; /* stamps, sized nv */
+    keymap faces;          /* candidate faces seen -> index in cand_faces (NONE: over the cap) */
+    keymap origs;          /* originals already in recheck */
     uint32_t stamp;
     /* results of the candidates this thread evaluated */
     u32vec out_u32;
@@ -294,13 +296,11 @@ static int next_stamp(scratch *sc)
 
 static int add_candidate_face(const sim *s, scratch *sc, uint32_t f, uint32_t u, uint32_t v)
 {
-    if (sc->face_seen[f] == sc->stamp || !s->face_alive[f]) return 0;
+    if (!s->face_alive[f] || keymap_find(&sc->faces, f)) return 0;
     if (face_has(s, f, u) && face_has(s, f, v)) return 0; /* removed by the collapse */
-    sc->face_seen[f] = sc->stamp;
-    sc->face_index[f] = NONE;
-    if (sc->cand_faces.size >= MAX_CANDIDATE_FACES) return 0;
-    sc->face_index[f] = (uint32_t)sc->cand_faces.size;
-    return u32_push(&sc->cand_faces, f);
+    const int room = sc->cand_faces.size < MAX_CANDIDATE_FACES;
+    if (keymap_insert(&sc->faces, f, room ? (uint32_t)sc->cand_faces.size : NONE) < 0) return -1;
+    return room ? u32_push(&sc->cand_faces, f) : 0;
 }
 
 /* Link condition (Dey et al.): the common neighbours of u and v are exactly
@@ -429,15 +429,14 @@ static int certify_collapse(const sim *s, scratch *sc, candidate *c, uint32_t u,
 {
     const double eps = s->eps;
     /* originals whose registration uses a face that changes or dies */
-    if (next_stamp(sc)) return 0;
+    keymap_clear(&sc->faces);
+    keymap_clear(&sc->origs);
     sc->recheck.size = 0;
     for (size_t i = 0; i < sc->faces_u.size; ++i)
         REGISTRY_FOR_EACH(&s->reg, sc->faces_u.data[i], slot) {
             uint32_t t = slot / REGISTRY_SLOTS;
-            if (sc->orig_seen[t] != sc->stamp) {
-                sc->orig_seen[t] = sc->stamp;
-                if (u32_push(&sc->recheck, t)) return sc->oom = 1, 0;
-            }
+            int fresh = keymap_insert(&sc->origs, t, 0);
+            if (fresh < 0 || (fresh && u32_push(&sc->recheck, t))) return sc->oom = 1, 0;
         }
     /* candidate faces: the new star, v's other faces and the faces the
      * originals used before; the 2-ring only when those are not enough */
@@ -469,8 +468,8 @@ static int certify_collapse(const sim *s, scratch *sc, candidate *c, uint32_t u,
             nfirst = 0;
             for (uint32_t k = 0; k < REGISTRY_SLOTS; ++k) {
                 uint32_t f = s->reg.slot_face[t * REGISTRY_SLOTS + k];
-                if (f != REGISTRY_NONE && sc->face_seen[f] == sc->stamp && sc->face_index[f] != NONE)
-                    first[nfirst++] = sc->face_index[f];
+                const uint32_t *at = f != REGISTRY_NONE ? keymap_find(&sc->faces, f) : NULL;
+                if (at && *at != NONE) first[nfirst++] = *at;
             }
             if (cert_cover(&s->orig, t, sc->tris, (uint32_t)sc->cand_faces.size, eps, first, nfirst, used, &n, &bound))
                 break;
@@ -918,7 +917,7 @@ static int grid_rebuild(sim *s)
         if (isfinite(e)) extent += e;
         alive++;
     }
-    double cell = alive ? 2.0 * extent / alive : 1.0;
+    double cell = alive ? 4.0 * extent / alive : 1.0;
     if (!(cell > 0.0) || !isfinite(cell)) cell = 1.0;
     facegrid_free(&s->grid);
     if (facegrid_init(&s->grid, cell, s->nf) != FACEGRID_OK) return -1;
@@ -1072,22 +1071,18 @@ static void sim_free(sim *s)
         free(sc->recheck.data);
         free(sc->nb);
         free(sc->tris);
-        free(sc->face_seen);
-        free(sc->orig_seen);
         free(sc->vertex_seen);
-        free(sc->face_index);
+        keymap_free(&sc->faces);
+        keymap_free(&sc->origs);
         free(sc->out_u32.data);
         free(sc->out_f64.data);
     }
 }
 
-static int scratch_init(scratch *sc, uint32_t nv, uint32_t nf)
+static int scratch_init(scratch *sc, uint32_t nv)
 {
-    sc->face_seen = calloc((size_t)nf + 1, sizeof *sc->face_seen);
-    sc->orig_seen = calloc((size_t)nf + 1, sizeof *sc->orig_seen);
     sc->vertex_seen = calloc((size_t)nv + 1, sizeof *sc->vertex_seen);
-    sc->face_index = calloc((size_t)nf + 1, sizeof *sc->face_index);
-    return sc->face_seen && sc->orig_seen && sc->vertex_seen && sc->face_index ? 0 : -1;
+    return sc->vertex_seen ? 0 : -1;
 }
 
 static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_material, const simplify_options *o)
@@ -1127,8 +1122,8 @@ static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_mater
         !s->reject_version || !s->vertex_stamp || !s->vertex_read_stamp || !s->orig_stamp || !s->quadrics || !s->face_commit_stamp)
         return -1;
     for (uint32_t t = 0; t < s->thread_count; ++t)
-        if (scratch_init(&s->scratch[t], nv, nf)) return -1;
-    if (scratch_init(&s->serial, nv, nf)) return -1;
+        if (scratch_init(&s->scratch[t], nv)) return -1;
+    if (scratch_init(&s->serial, nv)) return -1;
     for (uint32_t f = 0; f < nf; ++f) {
         int64_t m = primitive_material[w->triangle_primitive[f]];
         s->face_material[f] = m < 0 ? -1 : (int32_t)(m > INT32_MAX ? INT32_MAX : m);
