@@ -186,7 +186,10 @@ static void show_progress(batch *b, const char *current)
         long s = (long)(left + 0.5);
         snprintf(eta, sizeof eta, "%ld:%02ld", s / 60, s % 60);
     }
-    fprintf(stderr, "\r\033[Klodpipe batch: %zu/%zu files, ETA %s  %.60s", done, b->selected, eta, current ? current : "");
+    const char *name = current ? current : "";
+    size_t len = strlen(name);
+    fprintf(stderr, "\r\033[Klodpipe batch: %zu/%zu files, ETA %s  %s%s", done, b->selected, eta, len > 50 ? "..." : "",
+            len > 50 ? name + len - 50 : name);
     fflush(stderr);
     b->progress_shown = 1;
 }
