@@ -20,6 +20,7 @@ import datetime
 import filecmp
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -38,14 +39,17 @@ def log(msg):
 
 
 def run_batch(lodpipe, src, out, jobs):
-    """Runs one batch; returns (wall seconds, its --json summary, exit code)."""
+    """Runs one batch; returns (wall seconds, its --json summary, exit code, CPU seconds of it and its jobs)."""
     cmd = [lodpipe, "batch", src, "-o", out, "-j", str(jobs), "--json", "--quiet"]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.monotonic()
     r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     wall = time.monotonic() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     if r.stderr.strip():
         log("stderr of %s:\n%s" % (" ".join(cmd), r.stderr.strip()[:2000]))
-    return wall, json.loads(r.stdout), r.returncode
+    return wall, json.loads(r.stdout), r.returncode, cpu
 
 
 def files_below(top):
@@ -120,6 +124,7 @@ def main():
     src_bytes = sum(os.path.getsize(os.path.join(src, f)) for f in files_below(src))
     log("batch: %d glTF files, %d files in all, %.1f MB" % (len(rels), len(files_below(src)), src_bytes / 1e6))
 
+    load_before = os.getloadavg()
     runs = {}
     for jobs in (1, 2):
         out = os.path.join(WORK, "out-j%d" % jobs)
@@ -130,6 +135,7 @@ def main():
     log("second, unchanged run -j 1")
     runs["warm1"] = run_batch(lodpipe, src, os.path.join(WORK, "out-j1"), 1)
 
+    load_after = os.getloadavg()
     log("single-file runs for the byte comparison")
     single = os.path.join(WORK, "single")
     single_failures = single_file_outputs(lodpipe, src, single, rels)
@@ -144,20 +150,24 @@ def main():
                  "Batch: %d glTF files (%d files with their .bin and images, %.1f MB) written by "
                  "`bench/make_batch.py` from %d assets of ../shared/assets, %d variants each (positions under "
                  "a different affine map per variant): %d meshes, %s input triangles. Throughput = files (or input "
-                 "triangles) / wall seconds of the whole `lodpipe batch` command, timed by the script."
+                 "triangles) / wall seconds of the whole `lodpipe batch` command, timed by the script; CPU s = user + "
+                 "system time of the command and its jobs. Load average (1 min) before the runs %.2f, after %.2f: "
+                 "other work shared the cores, so wall times, and the -j 2 gain most of all, vary from run to run. "
+                 "With run.threads = 0, -j 1 already gives its one job a thread per core, so -j 2 compares "
+                 "file-level against mesh-level parallelism on the same cores."
                  % (datetime.date.today().isoformat(), git_commit(), cores, len(rels), len(files_below(src)),
                     src_bytes / 1e6, len(rels) // max(1, args.variants), args.variants,
-                    runs["cold1"][1]["meshes"], format(triangles, ",")))
+                    runs["cold1"][1]["meshes"], format(triangles, ","), load_before[0], load_after[0]))
     lines.append("")
-    lines.append("| run | jobs x threads | built | cached | failed | wall s | files/s | triangles/s |")
-    lines.append("|---|---|---:|---:|---:|---:|---:|---:|")
+    lines.append("| run | jobs x threads | built | cached | failed | wall s | CPU s | files/s | triangles/s |")
+    lines.append("|---|---|---:|---:|---:|---:|---:|---:|---:|")
     labels = [("cold1", "first run, -j 1"), ("cold2", "first run, -j 2"), ("warm2", "second run, unchanged, -j 2"),
               ("warm1", "second run, unchanged, -j 1")]
     for key, label in labels:
-        wall, s, rc = runs[key]
-        lines.append("| %s | %d x %d | %d | %d | %d%s | %.2f | %.1f | %s |"
+        wall, s, rc, cpu = runs[key]
+        lines.append("| %s | %d x %d | %d | %d | %d%s | %.2f | %.2f | %.1f | %s |"
                      % (label, s["jobs"], s["threads_per_job"], s["built"], s["cached"], s["failed"],
-                        "" if rc == 0 else " (exit %d)" % rc, wall, s["files"] / wall,
+                        "" if rc == 0 else " (exit %d)" % rc, wall, cpu, s["files"] / wall,
                         format(int(round(s["triangles_in"] / wall)), ",")))
     lines.append("")
     speed_j = runs["cold1"][0] / runs["cold2"][0]
