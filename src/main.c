@@ -74,7 +74,8 @@ static void usage(FILE *f)
           "  --viewport-height H    viewport height in pixels (1080)\n"
           "  --fov-y RADIANS        vertical field of view (0.7853981633974483)\n"
           "  --json                 print a machine-readable summary on stdout\n"
-          "  --force                overwrite the input file if OUT names it\n"
+          "  --force                overwrite the input file if OUT names it; batch:\n"
+          "                         rebuild every file, ignoring the cache\n"
           "  --allow-external-uris  accept uris that leave the input's folder\n"
           "  --quiet                no warnings on stderr\n"
           "  --levels LIST          eps per level in percent of the mesh's bounding-box\n"
@@ -86,12 +87,12 @@ static void usage(FILE *f)
           "  -j N                   batch: files processed at once (0, the default: one per\n"
           "                         core); each job gets cores / N threads\n"
           "  --shard K/N            batch: only the K-th of N disjoint parts (1 <= K <= N)\n"
-          "  --force                batch: rebuild every file, ignoring the cache\n"
           "  --help                 this text\n"
           "  --version              the version\n"
           "\n"
           "exit codes: 0 success, 1 usage error, 2 invalid input, 3 a promise could not\n"
-          "be kept, 4 I/O error, 5 batch: some files failed. Errors are one line: \"lodpipe: FILE: what is wrong\".\n",
+          "be kept, 4 I/O error, 5 batch: some files failed. Errors are one line:\n"
+          "\"lodpipe: FILE: what is wrong\".\n",
           f);
 }
 
