@@ -10,7 +10,9 @@
 #include <strings.h>
 #include <unistd.h>
 
+#include "batch.h"
 #include "config.h"
+#include "depfile.h"
 #include "jsonw.h"
 #include "lodchain.h"
 #include "measure.h"
@@ -35,6 +37,9 @@ typedef struct cli {
     int force;
     int quiet;
     int allow_external_uris;
+    const char *depfile;       /* --depfile: the main job's Make/Ninja dependency file */
+    int jobs, jobs_given;      /* batch -j N (0: one per core) */
+    uint32_t shard_index, shard_count; /* batch --shard K/N (1-based K; 0/0: everything) */
     double levels[SIMPLIFY_MAX_LEVELS]; /* config.lod.levels as fractions of the diagonal */
 } cli;
 
@@ -57,6 +62,10 @@ static void usage(FILE *f)
           "  simplify IN OUTDIR  the certified simplifier alone: for every mesh of the\n"
           "                      default scene, OUTDIR/mesh<K>_level<L>.obj (level 0 = the\n"
           "                      welded original, mesh space) and OUTDIR/simplify.json\n"
+          "  batch SRC_DIR -o OUT_DIR [-j N] [--shard K/N] [--force] [--json]\n"
+          "                      the main job on every .gltf/.glb under SRC_DIR, mirrored\n"
+          "                      into OUT_DIR; unchanged files are skipped (cache in\n"
+          "                      OUT_DIR/.lodpipe-cache.json); exit 5 if any file failed\n"
           "\n"
           "options:\n"
           "  -o OUT                 the main job's output (.glb or .gltf)\n"
@@ -65,18 +74,25 @@ static void usage(FILE *f)
           "  --viewport-height H    viewport height in pixels (1080)\n"
           "  --fov-y RADIANS        vertical field of view (0.7853981633974483)\n"
           "  --json                 print a machine-readable summary on stdout\n"
-          "  --force                overwrite the input file if OUT names it\n"
+          "  --force                overwrite the input file if OUT names it; batch:\n"
+          "                         rebuild every file, ignoring the cache\n"
           "  --allow-external-uris  accept uris that leave the input's folder\n"
           "  --quiet                no warnings on stderr\n"
           "  --levels LIST          eps per level in percent of the mesh's bounding-box\n"
           "                         diagonal, increasing (default 1,3,7,15)\n"
           "  --threads N            worker threads, 0..64 (0, the default: one per core); the result\n"
           "                         does not depend on it\n"
+          "  --depfile FILE         main job: write a Make/Ninja rule OUT: IN, the files IN\n"
+          "                         references and the --config file\n"
+          "  -j N                   batch: files processed at once (0, the default: one per\n"
+          "                         core); each job gets cores / N threads\n"
+          "  --shard K/N            batch: only the K-th of N disjoint parts (1 <= K <= N)\n"
           "  --help                 this text\n"
           "  --version              the version\n"
           "\n"
           "exit codes: 0 success, 1 usage error, 2 invalid input, 3 a promise could not\n"
-          "be kept, 4 I/O error. Errors are one line: \"lodpipe: FILE: what is wrong\".\n",
+          "be kept, 4 I/O error, 5 batch: some files failed. Errors are one line:\n"
+          "\"lodpipe: FILE: what is wrong\".\n",
           f);
 }
 
@@ -181,8 +197,27 @@ static int output_usable(const cli *c, const char *in, const char *out)
     return LP_OK;
 }
 
-/* Serializes the document and writes every file all-or-nothing. */
-static int write_document(const gltf_doc *doc, const char *out)
+/* Appends `,"outputs":[paths]`: the files output_write_all wrote for `out`
+ * (the main file first, the others in its folder). */
+static void json_written_files(jsonw *j, const char *out, const gltf_out_file *files, size_t count)
+{
+    const char *slash = strrchr(out, '/');
+    jsonw_raw(j, ",\"outputs\":[");
+    jsonw_string(j, out);
+    for (size_t i = 1; i < count; ++i) {
+        jsonw path = {0};
+        if (slash) jsonw_printf(&path, "%.*s/", (int)(slash - out), out);
+        jsonw_raw(&path, files[i].name);
+        jsonw_raw(j, ",");
+        jsonw_string(j, path.failed ? "" : path.text);
+        jsonw_free(&path);
+    }
+    jsonw_raw(j, "]");
+}
+
+/* Serializes the document and writes every file all-or-nothing; on success
+ * the paths written are appended to `written` (when not NULL). */
+static int write_document(const gltf_doc *doc, const char *out, jsonw *written)
 {
     gltf_out_file *files = NULL;
     size_t count = 0;
@@ -194,6 +229,8 @@ static int write_document(const gltf_doc *doc, const char *out)
         rc = report(out, &err);
     } else if ((rc = output_write_all(out, files, count, &err)) != 0) {
         rc = report(out, &err);
+    } else if (written) {
+        json_written_files(written, out, files, count);
     }
     gltf_free_files(files, count);
     free(files);
@@ -208,7 +245,7 @@ static int cmd_convert(const cli *c)
     scene s;
     int rc = load(c, in, &s);
     if (rc) return rc;
-    rc = write_document(s.doc, out);
+    rc = write_document(s.doc, out, NULL);
     scene_free(&s);
     return rc;
 }
@@ -377,6 +414,37 @@ static int cmd_simplify(const cli *c)
     return rc;
 }
 
+/* Appends `,"inputs":[paths]`: IN and every file it references. */
+static void json_inputs(jsonw *j, const char *in, const gltf_doc *doc)
+{
+    jsonw_raw(j, ",\"inputs\":[");
+    jsonw_string(j, in);
+    for (size_t i = 0; i < gltf_external_file_count(doc); ++i) {
+        jsonw_raw(j, ",");
+        jsonw_string(j, gltf_external_file(doc, i));
+    }
+    jsonw_raw(j, "]");
+}
+
+/* --depfile: "OUT: IN referenced-files... [config]", written all-or-nothing
+ * after the output itself. */
+static int write_depfile(const cli *c, const char *in, const char *out, const gltf_doc *doc)
+{
+    size_t count = 0, external = gltf_external_file_count(doc);
+    const char **deps = malloc((external + 2) * sizeof *deps);
+    if (!deps) return LP_IO;
+    deps[count++] = in;
+    for (size_t i = 0; i < external; ++i) deps[count++] = gltf_external_file(doc, i);
+    if (c->config_path) deps[count++] = c->config_path;
+    lp_error err = {0, ""};
+    char *text = depfile_text(out, deps, count, &err);
+    free(deps);
+    if (!text) return report(c->depfile, &err);
+    int rc = write_bytes(c->depfile, text, strlen(text));
+    free(text);
+    return rc;
+}
+
 /* The main job: every mesh of the default scene through the certified ladder
  * into an MSFT_lod chain, the document written to OUT all at once. */
 static int cmd_lod(const cli *c)
@@ -449,14 +517,17 @@ static int cmd_lod(const cli *c)
         lodchain_summary_free(&sum);
         simplify_result_free(&r);
     }
-    jsonw_raw(&j, "]}\n");
+    jsonw_raw(&j, "]");
     if (rc) {
         report(in, &err);
         jsonw_free(&j);
         scene_free(&s);
         return rc;
     }
-    rc = write_document(s.doc, out);
+    json_inputs(&j, in, s.doc);
+    rc = write_document(s.doc, out, &j);
+    jsonw_raw(&j, "}\n");
+    if (!rc && c->depfile) rc = write_depfile(c, in, out, s.doc);
     if (!rc && c->json) fputs(j.failed ? "{}\n" : j.text, stdout);
     jsonw_free(&j);
     scene_free(&s);
@@ -543,6 +614,50 @@ static int cmd_check(const cli *c)
     return LP_OK;
 }
 
+/* -j N (0..256) and --shard K/N (1 <= K <= N <= 65536). */
+static int parse_batch_value(cli *c, const char *flag, const char *value)
+{
+    char msg[300];
+    unsigned k = 0, n = 0;
+    int used = 0;
+    if (strcmp(flag, "-j") == 0) {
+        if (sscanf(value, "%u%n", &k, &used) == 1 && value[used] == 0 && value[0] != '-' && value[0] != '+' && k <= 256) {
+            c->jobs = (int)k;
+            c->jobs_given = 1;
+            return LP_OK;
+        }
+        snprintf(msg, sizeof msg, "-j %.100s: must be a whole number in 0..256 (0: one per core)", value);
+        return usage_error(msg);
+    }
+    if (sscanf(value, "%u/%u%n", &k, &n, &used) == 2 && value[used] == 0 && value[0] != '-' && value[0] != '+' &&
+        k >= 1 && n <= 65536 && k <= n) {
+        c->shard_index = k;
+        c->shard_count = n;
+        return LP_OK;
+    }
+    snprintf(msg, sizeof msg, "--shard %.100s: must be K/N with 1 <= K <= N <= 65536", value);
+    return usage_error(msg);
+}
+
+/* The batch command: the options it shares with the main job reach every
+ * file through the effective configuration (batch.h). */
+static int cmd_batch(const cli *c)
+{
+    batch_options opt;
+    memset(&opt, 0, sizeof opt);
+    opt.source_dir = c->operands[0];
+    opt.output_dir = c->output;
+    opt.jobs = c->jobs;
+    opt.shard_index = c->shard_index;
+    opt.shard_count = c->shard_count;
+    opt.force = c->force;
+    opt.json = c->json;
+    opt.quiet = c->quiet;
+    opt.allow_external_uris = c->allow_external_uris;
+    opt.config = &c->config;
+    return batch_run(&opt);
+}
+
 /* Reads the command line: the command, its operands, the tool's own flags,
  * and the configuration (defaults, then --config FILE, then config flags in
  * the order given). */
@@ -556,7 +671,8 @@ static int parse(int argc, char **argv, cli *c)
     for (int i = 1; i < argc && !rc; ++i) {
         const char *a = argv[i];
         int kind = config_flag(a);
-        int takes_value = kind == 1 || strcmp(a, "-o") == 0 || strcmp(a, "--config") == 0;
+        int takes_value = kind == 1 || strcmp(a, "-o") == 0 || strcmp(a, "--config") == 0 ||
+                          strcmp(a, "--depfile") == 0 || strcmp(a, "-j") == 0 || strcmp(a, "--shard") == 0;
         if (takes_value && i + 1 >= argc) {
             char msg[300];
             snprintf(msg, sizeof msg, "%s needs a value", a);
@@ -586,6 +702,10 @@ static int parse(int argc, char **argv, cli *c)
             c->json = 1;
         } else if (strcmp(a, "--allow-external-uris") == 0) {
             c->allow_external_uris = 1;
+        } else if (strcmp(a, "--depfile") == 0) {
+            c->depfile = argv[++i];
+        } else if (strcmp(a, "-j") == 0 || strcmp(a, "--shard") == 0) {
+            rc = parse_batch_value(c, a, argv[++i]);
         } else if (a[0] == '-' && a[1]) {
             char msg[300];
             snprintf(msg, sizeof msg, "unknown option %.200s", a);
@@ -624,6 +744,13 @@ int main(int argc, char **argv)
     int rc = parse(argc, argv, &c);
     if (rc) return rc;
     if (!c.command) return usage_error("no command given");
+    const int batch = strcmp(c.command, "batch") == 0;
+    if (!batch && (c.jobs_given || c.shard_count)) return usage_error("-j and --shard belong to the batch command");
+    if (c.depfile && (batch || !c.output)) return usage_error("--depfile belongs to the main job: lodpipe IN -o OUT --depfile FILE");
+    if (batch) {
+        if (c.operand_count != 1 || !c.output) return usage_error("batch needs SRC_DIR and -o OUT_DIR");
+        return cmd_batch(&c);
+    }
     if (c.output) { /* the main job: lodpipe IN -o OUT */
         if (c.operand_count != 0) return usage_error("the main job takes one input: lodpipe IN -o OUT");
         c.operands[0] = c.command;

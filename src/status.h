@@ -12,7 +12,8 @@ enum {
     LP_USAGE = 1,   /* the command line is wrong */
     LP_INVALID = 2, /* the input is not valid glTF 2.0, or not usable */
     LP_PROMISE = 3, /* a promise could not be kept (e.g. a bound could not be certified) */
-    LP_IO = 4       /* a file could not be read or written */
+    LP_IO = 4,      /* a file could not be read or written */
+    LP_SOME_FAILED = 5 /* lodpipe batch: at least one file failed (the others completed) */
 };
 
 typedef struct lp_error {

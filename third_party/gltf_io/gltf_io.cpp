@@ -402,6 +402,7 @@ struct gltf_doc {
     std::vector<std::vector<int64_t>> node_children, node_lods, scene_nodes;
     std::vector<std::string> names[GLTF_KIND_COUNT];
     std::vector<std::string> ext_used, ext_required;
+    std::vector<std::string> external_files; // files the load read besides the input (gltf_external_file)
 };
 
 namespace {
@@ -882,6 +883,25 @@ void build_records(gltf_doc *doc)
 
 void mark_referenced_views(gltf_doc *doc);
 
+// The files tinygltf read for buffers and images named by an external uri, as
+// the process opened them (the input's folder joined with the decoded uri),
+// each once, buffers first.
+void list_external_files(gltf_doc *doc)
+{
+    auto add = [&](const std::string &uri) {
+        if (is_data_uri(uri)) return;
+        const std::string decoded = tinygltf::dlib::urldecode(uri);
+        const std::string full = doc->dir == "." ? decoded : tinygltf::JoinPath(doc->dir, decoded);
+        for (const std::string &f : doc->external_files)
+            if (f == full) return;
+        doc->external_files.push_back(full);
+    };
+    for (const ojson &b : array_of(doc->json, "buffers"))
+        if (b.contains("uri") && !is_meshopt_fallback(b)) add(b["uri"].get<std::string>());
+    for (const ojson &i : array_of(doc->json, "images"))
+        if (i.contains("uri") && !i.contains("bufferView")) add(i["uri"].get<std::string>());
+}
+
 void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
 {
     const uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
@@ -921,6 +941,7 @@ void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
     decode_compression(doc);
     mark_referenced_views(doc);
     build_records(doc);
+    list_external_files(doc);
 }
 
 } // namespace
@@ -954,6 +975,13 @@ extern "C" int gltf_load(const char *path, const gltf_load_options *options, glt
 }
 
 extern "C" void gltf_free(gltf_doc *doc) { delete doc; }
+
+extern "C" size_t gltf_external_file_count(const gltf_doc *doc) { return doc->external_files.size(); }
+
+extern "C" const char *gltf_external_file(const gltf_doc *doc, size_t index)
+{
+    return index < doc->external_files.size() ? doc->external_files[index].c_str() : "";
+}
 
 extern "C" size_t gltf_count(const gltf_doc *doc, gltf_kind kind)
 {

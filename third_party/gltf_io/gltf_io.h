@@ -48,6 +48,15 @@ int gltf_load(const char *path, const gltf_load_options *options, gltf_doc **out
               char *err, size_t errlen);
 void gltf_free(gltf_doc *doc);
 
+/* The files the load read besides `path` itself: every buffer and image named
+ * by a uri that is not a data: URI, as a path the process can open (the
+ * input's folder joined with the percent-decoded uri; the bare uri when the
+ * input has no folder), each once, buffers first then images, in document
+ * order. What a build system must watch (lodpipe --depfile) and what the batch
+ * cache hashes. */
+size_t gltf_external_file_count(const gltf_doc *doc);
+const char *gltf_external_file(const gltf_doc *doc, size_t index); /* "" when out of range */
+
 /* ---- reading: counts and plain records, valid until gltf_free ---------------- */
 
 typedef enum {

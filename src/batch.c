@@ -1,0 +1,1052 @@
+/* batch.c - see batch.h.
+ *
+ * Why one process per file. Each file runs as its own `lodpipe IN -o OUT
+ * --json` child (posix_spawn of this very binary, /proc/self/exe), whose JSON
+ * summary the batch reads back, instead of running the pipeline on threads
+ * inside this process:
+ * - isolation: a file that makes the job exit, abort or run out of memory
+ *   ends only its own process; the batch reports it and goes on;
+ * - memory: every file's allocations go back to the system when its job
+ *   ends, so a long batch does not fragment or grow;
+ * - identity: a batch output IS a single-file run's output, by construction,
+ *   not by keeping two code paths in step;
+ * - the single-file pipeline already uses worker threads per mesh
+ *   (run.threads), so cores are shared by giving each of the -j jobs
+ *   cores / jobs threads (when run.threads is 0) rather than by nesting pools.
+ * The cost, one exec per file (a few milliseconds), is small against a
+ * simplification. The configuration reaches the jobs as a canonical
+ * pipeline.toml (config_write) in OUT_DIR, so every key, from a file or a
+ * flag, applies to every file; switches that are not configuration keys
+ * (--allow-external-uris, --quiet) are passed on explicitly in job_argv.
+ *
+ * The cache key (batch.h) needs the list of files a glTF references; the
+ * batch does not parse glTF itself: the job lists them ("inputs" in its JSON),
+ * and the manifest keeps that list. The list is a function of the input's
+ * bytes, so when the input is unchanged, re-hashing the recorded list is
+ * exactly re-hashing what the job would read. */
+#include "batch.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "jsonr.h"
+#include "jsonw.h"
+#include "output.h"
+#include "sha256.h"
+#include "status.h"
+#include "version.h"
+
+extern char **environ;
+
+#define MANIFEST_NAME ".lodpipe-cache.json"
+#define MANIFEST_FORMAT 1
+#define CAPTURE_LIMIT (4u << 20) /* bytes kept of a job's stdout or stderr */
+#define MAX_SCAN_DEPTH 256
+
+/* A file a job read or wrote: `name` relative to SRC_DIR (inputs) or OUT_DIR
+ * (outputs), or, when `as_opened`, the path exactly as the job opened it (an
+ * input outside SRC_DIR, allowed by --allow-external-uris). */
+typedef struct file_ref {
+    char *name;
+    int as_opened;
+    char sha256[SHA256_HEX];
+} file_ref;
+
+typedef struct file_refs {
+    file_ref *items;
+    size_t count;
+} file_refs;
+
+/* What the manifest says about one file, or what its job just produced. */
+typedef struct record {
+    int present;
+    char key[SHA256_HEX];
+    uint32_t meshes;
+    uint64_t triangles_in, triangles_out;
+    double seconds;
+    file_refs inputs, outputs;
+} record;
+
+typedef enum job_state { JOB_SKIPPED_SHARD, JOB_PENDING, JOB_RUNNING, JOB_CACHED, JOB_BUILT, JOB_FAILED } job_state;
+
+typedef struct capture {
+    char *bytes;
+    size_t size, capacity;
+    int fd; /* -1 once at end of file */
+} capture;
+
+typedef struct job {
+    char *rel;    /* path below SRC_DIR */
+    char *source; /* SRC_DIR/rel */
+    char *output; /* OUT_DIR/rel */
+    job_state state;
+    record old;   /* from the manifest */
+    record now;   /* this run's result (built or cached) */
+    int exit_code;
+    char *error;  /* first line of a failed job's message */
+    pid_t pid;
+    capture out, err;
+    double started;
+} job;
+
+typedef struct batch {
+    const batch_options *opt;
+    char *source_dir, *output_dir; /* without trailing slashes */
+    char self[4096];               /* the binary every job runs */
+    char config_path[4200];        /* the jobs' pipeline.toml, removed at the end */
+    uint8_t key_prefix[SHA256_BYTES]; /* version + configuration + switches */
+    job *jobs;
+    size_t job_count, job_capacity;
+    size_t selected, to_build, finished_builds;
+    int jobs_at_once, threads_per_job;
+    int progress; /* stderr is a terminal and not quiet */
+    int progress_shown;
+    double start;
+    struct stat output_stat;
+} batch;
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static char *join_path(const char *dir, const char *name)
+{
+    size_t a = strlen(dir), b = strlen(name);
+    char *p = malloc(a + b + 2);
+    if (!p) return NULL;
+    memcpy(p, dir, a);
+    p[a] = '/';
+    memcpy(p + a + 1, name, b + 1);
+    return p;
+}
+
+static char *strip_slashes(const char *path)
+{
+    char *p = strdup(path);
+    if (!p) return NULL;
+    size_t n = strlen(p);
+    while (n > 1 && p[n - 1] == '/') p[--n] = 0;
+    return p;
+}
+
+static void refs_free(file_refs *r)
+{
+    for (size_t i = 0; i < r->count; ++i) free(r->items[i].name);
+    free(r->items);
+    memset(r, 0, sizeof *r);
+}
+
+static void record_free(record *r)
+{
+    refs_free(&r->inputs);
+    refs_free(&r->outputs);
+    memset(r, 0, sizeof *r);
+}
+
+static char *resolve_ref(const char *base, const file_ref *f)
+{
+    return f->as_opened ? strdup(f->name) : join_path(base, f->name);
+}
+
+/* ---- progress and messages ---------------------------------------------------- */
+
+static void clear_progress(batch *b)
+{
+    if (b->progress_shown) {
+        fputs("\r\033[K", stderr);
+        b->progress_shown = 0;
+    }
+}
+
+static void show_progress(batch *b, const char *current)
+{
+    if (!b->progress) return;
+    size_t done = 0;
+    for (size_t i = 0; i < b->job_count; ++i)
+        done += b->jobs[i].state == JOB_CACHED || b->jobs[i].state == JOB_BUILT || b->jobs[i].state == JOB_FAILED;
+    char eta[32] = "--:--";
+    double elapsed = now_seconds() - b->start;
+    if (b->finished_builds > 0) {
+        double left = elapsed / (double)b->finished_builds * (double)(b->to_build - b->finished_builds);
+        long s = (long)(left + 0.5);
+        snprintf(eta, sizeof eta, "%ld:%02ld", s / 60, s % 60);
+    }
+    const char *name = current ? current : "";
+    size_t len = strlen(name);
+    fprintf(stderr, "\r\033[Klodpipe batch: %zu/%zu files, ETA %s  %s%s", done, b->selected, eta, len > 50 ? "..." : "",
+            len > 50 ? name + len - 50 : name);
+    fflush(stderr);
+    b->progress_shown = 1;
+}
+
+/* Relays a job's stderr text as it is (its lines already name the file). */
+static void relay(batch *b, const capture *c)
+{
+    if (!c->size) return;
+    clear_progress(b);
+    fwrite(c->bytes, 1, c->size, stderr);
+    if (c->bytes[c->size - 1] != '\n') fputc('\n', stderr);
+}
+
+/* ---- the file list ------------------------------------------------------------- */
+
+static int has_gltf_extension(const char *name)
+{
+    size_t n = strlen(name);
+    return (n > 5 && strcasecmp(name + n - 5, ".gltf") == 0) || (n > 4 && strcasecmp(name + n - 4, ".glb") == 0);
+}
+
+static int add_job(batch *b, const char *rel)
+{
+    if (b->job_count == b->job_capacity) {
+        size_t cap = b->job_capacity ? 2 * b->job_capacity : 64;
+        job *j = realloc(b->jobs, cap * sizeof *j);
+        if (!j) return -1;
+        b->jobs = j;
+        b->job_capacity = cap;
+    }
+    job *j = &b->jobs[b->job_count];
+    memset(j, 0, sizeof *j);
+    j->rel = strdup(rel);
+    j->source = join_path(b->source_dir, rel);
+    j->output = join_path(b->output_dir, rel);
+    j->out.fd = j->err.fd = -1;
+    if (!j->rel || !j->source || !j->output) {
+        free(j->rel);
+        free(j->source);
+        free(j->output);
+        return -1;
+    }
+    b->job_count++;
+    return 0;
+}
+
+/* Collects every glTF file below SRC_DIR/rel_dir (rel_dir "" = the top). */
+static int scan(batch *b, const char *rel_dir, int depth, lp_error *err)
+{
+    char *dir_path = rel_dir[0] ? join_path(b->source_dir, rel_dir) : strdup(b->source_dir);
+    if (!dir_path) return lp_fail(err, LP_IO, "out of memory");
+    DIR *d = opendir(dir_path);
+    if (!d) {
+        int rc = lp_fail(err, LP_IO, "%s: cannot read the folder (%s)", dir_path, strerror(errno));
+        free(dir_path);
+        return rc;
+    }
+    int rc = LP_OK;
+    struct dirent *e;
+    while (!rc && (e = readdir(d)) != NULL) {
+        if (e->d_name[0] == '.') continue;
+        char *rel = rel_dir[0] ? join_path(rel_dir, e->d_name) : strdup(e->d_name);
+        char *full = rel ? join_path(b->source_dir, rel) : NULL;
+        struct stat st;
+        if (!rel || !full) {
+            rc = lp_fail(err, LP_IO, "out of memory");
+        } else if (lstat(full, &st) == 0) {
+            if (S_ISDIR(st.st_mode)) {
+                int is_output = st.st_dev == b->output_stat.st_dev && st.st_ino == b->output_stat.st_ino;
+                if (!is_output && depth < MAX_SCAN_DEPTH) rc = scan(b, rel, depth + 1, err);
+            } else if (has_gltf_extension(e->d_name) && stat(full, &st) == 0 && S_ISREG(st.st_mode)) {
+                if (add_job(b, rel)) rc = lp_fail(err, LP_IO, "out of memory");
+            }
+        }
+        free(rel);
+        free(full);
+    }
+    closedir(d);
+    free(dir_path);
+    return rc;
+}
+
+static int by_relative_path(const void *a, const void *b)
+{
+    return strcmp(((const job *)a)->rel, ((const job *)b)->rel);
+}
+
+uint32_t batch_shard_of(const char *relative_path, uint32_t shard_count)
+{
+    if (shard_count <= 1) return 0;
+    uint8_t d[SHA256_BYTES];
+    sha256_bytes(relative_path, strlen(relative_path), d);
+    uint64_t x = 0;
+    for (int i = 0; i < 8; ++i) x = x << 8 | d[i];
+    return (uint32_t)(x % shard_count);
+}
+
+/* ---- the manifest ---------------------------------------------------------------- */
+
+static int read_refs(const jsonr *r, uint32_t array, file_refs *out)
+{
+    uint32_t n = jsonr_size(r, array);
+    if (r->count == 0 || array == JSONR_NONE || r->tokens[array].type != JSONR_ARRAY) return -1;
+    out->items = calloc(n ? n : 1, sizeof *out->items);
+    if (!out->items) return -1;
+    for (uint32_t i = 0; i < n; ++i) {
+        uint32_t item = jsonr_element(r, array, i);
+        uint32_t name = jsonr_member(r, item, "path"), opened = jsonr_member(r, item, "opened");
+        char *hash = jsonr_string(r, jsonr_member(r, item, "sha256"));
+        file_ref *f = &out->items[out->count];
+        f->as_opened = name == JSONR_NONE;
+        f->name = jsonr_string(r, f->as_opened ? opened : name);
+        int ok = f->name && hash && strlen(hash) == SHA256_HEX - 1;
+        if (ok) memcpy(f->sha256, hash, SHA256_HEX);
+        free(hash);
+        if (!ok) {
+            free(f->name);
+            return -1;
+        }
+        out->count++;
+    }
+    return 0;
+}
+
+/* Reads the manifest's entries into the jobs' `old` records. A missing file
+ * is an empty cache; a damaged one too (with a warning): the cache only ever
+ * saves work, it never decides an output. */
+static void load_manifest(batch *b)
+{
+    char *path = join_path(b->output_dir, MANIFEST_NAME);
+    FILE *f = path ? fopen(path, "rb") : NULL;
+    if (!f) {
+        free(path);
+        return;
+    }
+    char *text = NULL;
+    size_t size = 0, cap = 0, got;
+    char buf[65536];
+    while ((got = fread(buf, 1, sizeof buf, f)) > 0) {
+        if (size + got + 1 > cap) {
+            cap = 2 * (size + got + 1);
+            char *t = realloc(text, cap);
+            if (!t) break;
+            text = t;
+        }
+        memcpy(text + size, buf, got);
+        size += got;
+    }
+    fclose(f);
+    jsonr r;
+    int ok = text && jsonr_parse(&r, text, size) == 0;
+    if (ok) {
+        uint32_t entries = jsonr_member(&r, 0, "entries");
+        ok = jsonr_number(&r, jsonr_member(&r, 0, "format"), 0) == MANIFEST_FORMAT && entries != JSONR_NONE;
+        for (uint32_t e = 0; ok && e < jsonr_size(&r, entries); ++e) {
+            uint32_t item = jsonr_element(&r, entries, e);
+            char *source = jsonr_string(&r, jsonr_member(&r, item, "source"));
+            char *key = jsonr_string(&r, jsonr_member(&r, item, "key"));
+            job probe = {.rel = source};
+            job *j = source ? bsearch(&probe, b->jobs, b->job_count, sizeof *b->jobs, by_relative_path) : NULL;
+            if (j && key && strlen(key) == SHA256_HEX - 1 && !j->old.present) {
+                record *o = &j->old;
+                memcpy(o->key, key, SHA256_HEX);
+                o->meshes = (uint32_t)jsonr_number(&r, jsonr_member(&r, item, "meshes"), 0);
+                o->triangles_in = (uint64_t)jsonr_number(&r, jsonr_member(&r, item, "triangles_in"), 0);
+                o->triangles_out = (uint64_t)jsonr_number(&r, jsonr_member(&r, item, "triangles_out"), 0);
+                o->seconds = jsonr_number(&r, jsonr_member(&r, item, "seconds"), 0);
+                if (read_refs(&r, jsonr_member(&r, item, "inputs"), &o->inputs) == 0 &&
+                    read_refs(&r, jsonr_member(&r, item, "outputs"), &o->outputs) == 0)
+                    o->present = 1;
+                else
+                    record_free(o);
+            }
+            free(source);
+            free(key);
+        }
+        jsonr_free(&r);
+    }
+    if (!ok && !b->opt->quiet) fprintf(stderr, "lodpipe: %s: warning: not a lodpipe cache manifest; rebuilding everything\n", path);
+    free(text);
+    free(path);
+}
+
+static void json_refs(jsonw *w, const char *name, const file_refs *refs)
+{
+    jsonw_printf(w, ",\"%s\":[", name);
+    for (size_t i = 0; i < refs->count; ++i) {
+        jsonw_raw(w, i ? ",{" : "{");
+        jsonw_raw(w, refs->items[i].as_opened ? "\"opened\":" : "\"path\":");
+        jsonw_string(w, refs->items[i].name);
+        jsonw_printf(w, ",\"sha256\":\"%s\"}", refs->items[i].sha256);
+    }
+    jsonw_raw(w, "]");
+}
+
+/* Writes the manifest: this run's built and cached files, plus the old
+ * entries of files outside the shard. */
+static int write_manifest(batch *b, lp_error *err)
+{
+    jsonw w = {0};
+    jsonw_printf(&w, "{\"format\":%d,\"version\":", MANIFEST_FORMAT);
+    jsonw_string(&w, LODPIPE_VERSION);
+    jsonw_raw(&w, ",\"entries\":[");
+    int first = 1;
+    for (size_t i = 0; i < b->job_count; ++i) {
+        const job *j = &b->jobs[i];
+        const record *r = j->state == JOB_SKIPPED_SHARD ? &j->old : &j->now;
+        if (!r->present || (j->state != JOB_SKIPPED_SHARD && j->state != JOB_BUILT && j->state != JOB_CACHED)) continue;
+        jsonw_raw(&w, first ? "\n{\"source\":" : ",\n{\"source\":");
+        jsonw_string(&w, j->rel);
+        jsonw_printf(&w, ",\"key\":\"%s\",\"meshes\":%u,\"triangles_in\":%llu,\"triangles_out\":%llu,\"seconds\":", r->key,
+                     r->meshes, (unsigned long long)r->triangles_in, (unsigned long long)r->triangles_out);
+        jsonw_number(&w, r->seconds);
+        json_refs(&w, "inputs", &r->inputs);
+        json_refs(&w, "outputs", &r->outputs);
+        jsonw_raw(&w, "}");
+        first = 0;
+    }
+    jsonw_raw(&w, "\n]}\n");
+    if (w.failed) {
+        jsonw_free(&w);
+        return lp_fail(err, LP_IO, "out of memory");
+    }
+    char *path = join_path(b->output_dir, MANIFEST_NAME);
+    gltf_out_file f = {(char *)MANIFEST_NAME, (uint8_t *)w.text, w.length};
+    int rc = path ? output_write_all(path, &f, 1, err) : lp_fail(err, LP_IO, "out of memory");
+    free(path);
+    jsonw_free(&w);
+    return rc;
+}
+
+/* ---- the cache key -------------------------------------------------------------- */
+
+/* Version, configuration (without run.threads) and switches: what every key
+ * of this run starts with. */
+static int compute_key_prefix(batch *b)
+{
+    lp_config config = *b->opt->config;
+    config.run.threads = 0;
+    size_t n = config_write(&config, CONFIG_TOML, NULL, 0);
+    char *text = malloc(n + 1);
+    if (!text) return -1;
+    config_write(&config, CONFIG_TOML, text, n + 1);
+    sha256_ctx ctx;
+    sha256_init(&ctx);
+    const char *head = "lodpipe batch cache key 1\nversion " LODPIPE_VERSION "\n";
+    sha256_update(&ctx, head, strlen(head));
+    sha256_update(&ctx, text, n);
+    const char *uris = b->opt->allow_external_uris ? "allow_external_uris true\n" : "allow_external_uris false\n";
+    sha256_update(&ctx, uris, strlen(uris));
+    sha256_final(&ctx, b->key_prefix);
+    free(text);
+    return 0;
+}
+
+/* Hashes every input of r as it is now (refreshing r's hashes) and derives
+ * the key. Returns -1 when an input cannot be read. */
+static int compute_key(const batch *b, const char *rel, record *r)
+{
+    sha256_ctx ctx;
+    sha256_init(&ctx);
+    sha256_update(&ctx, b->key_prefix, sizeof b->key_prefix);
+    sha256_update(&ctx, "source ", 7);
+    sha256_update(&ctx, rel, strlen(rel) + 1);
+    for (size_t i = 0; i < r->inputs.count; ++i) {
+        file_ref *f = &r->inputs.items[i];
+        char *path = resolve_ref(b->source_dir, f);
+        int rc = path ? sha256_file_hex(path, f->sha256) : -1;
+        free(path);
+        if (rc) return -1;
+        sha256_update(&ctx, f->as_opened ? "opened " : "input ", f->as_opened ? 7 : 6);
+        sha256_update(&ctx, f->name, strlen(f->name) + 1);
+        sha256_update(&ctx, f->sha256, SHA256_HEX - 1);
+    }
+    uint8_t d[SHA256_BYTES];
+    sha256_final(&ctx, d);
+    sha256_hex(d, r->key);
+    return 0;
+}
+
+/* The recorded outputs are all there with the recorded bytes. */
+static int outputs_intact(const batch *b, const record *r)
+{
+    if (!r->outputs.count) return 0;
+    for (size_t i = 0; i < r->outputs.count; ++i) {
+        char hex[SHA256_HEX];
+        char *path = resolve_ref(b->output_dir, &r->outputs.items[i]);
+        int rc = path ? sha256_file_hex(path, hex) : -1;
+        free(path);
+        if (rc || strcmp(hex, r->outputs.items[i].sha256) != 0) return 0;
+    }
+    return 1;
+}
+
+static int copy_refs(const file_refs *from, file_refs *to)
+{
+    to->items = calloc(from->count ? from->count : 1, sizeof *to->items);
+    if (!to->items) return -1;
+    for (size_t i = 0; i < from->count; ++i) {
+        to->items[i] = from->items[i];
+        to->items[i].name = strdup(from->items[i].name);
+        if (!to->items[i].name) return -1;
+        to->count++;
+    }
+    return 0;
+}
+
+/* Decides whether the job's recorded result still holds: the key over its
+ * current input bytes matches, and its outputs are intact. */
+static int still_cached(const batch *b, job *j)
+{
+    if (!j->old.present) return 0;
+    record probe = {0};
+    int ok = copy_refs(&j->old.inputs, &probe.inputs) == 0 && compute_key(b, j->rel, &probe) == 0 &&
+             strcmp(probe.key, j->old.key) == 0 && outputs_intact(b, &j->old);
+    record_free(&probe);
+    if (!ok) return 0;
+    j->now = j->old;
+    memset(&j->old, 0, sizeof j->old);
+    return 1;
+}
+
+/* ---- running one job --------------------------------------------------------------- */
+
+/* Creates the folders above `path` (below OUT_DIR). */
+static int make_parent_folders(const char *path)
+{
+    char *p = strdup(path);
+    if (!p) return -1;
+    int rc = 0;
+    for (char *s = strchr(p + 1, '/'); s && !rc; s = strchr(s + 1, '/')) {
+        *s = 0;
+        if (mkdir(p, 0777) != 0 && errno != EEXIST) rc = -1;
+        *s = '/';
+    }
+    free(p);
+    return rc;
+}
+
+static int start_job(batch *b, job *j)
+{
+    int out_pipe[2] = {-1, -1}, err_pipe[2] = {-1, -1};
+    if (make_parent_folders(j->output) != 0) {
+        j->exit_code = LP_IO;
+        fprintf(stderr, "lodpipe: %s: cannot create its output folder (%s)\n", j->output, strerror(errno));
+        return -1;
+    }
+    if (pipe(out_pipe) || pipe(err_pipe)) {
+        j->exit_code = LP_IO;
+        fprintf(stderr, "lodpipe: %s: cannot start its job (%s)\n", j->source, strerror(errno));
+        for (int k = 0; k < 2; ++k) {
+            if (out_pipe[k] >= 0) close(out_pipe[k]);
+            if (err_pipe[k] >= 0) close(err_pipe[k]);
+        }
+        return -1;
+    }
+    for (int k = 0; k < 2; ++k) {
+        fcntl(out_pipe[k], F_SETFD, FD_CLOEXEC);
+        fcntl(err_pipe[k], F_SETFD, FD_CLOEXEC);
+    }
+    char *argv[12];
+    int n = 0;
+    argv[n++] = b->self;
+    argv[n++] = j->source;
+    argv[n++] = "-o";
+    argv[n++] = j->output;
+    argv[n++] = "--config";
+    argv[n++] = b->config_path;
+    argv[n++] = "--json";
+    if (b->opt->allow_external_uris) argv[n++] = "--allow-external-uris";
+    if (b->opt->quiet) argv[n++] = "--quiet";
+    argv[n] = NULL;
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
+    posix_spawn_file_actions_adddup2(&actions, err_pipe[1], STDERR_FILENO);
+    int rc = posix_spawn(&j->pid, b->self, &actions, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&actions);
+    close(out_pipe[1]);
+    close(err_pipe[1]);
+    if (rc != 0) {
+        close(out_pipe[0]);
+        close(err_pipe[0]);
+        j->exit_code = LP_IO;
+        fprintf(stderr, "lodpipe: %s: cannot start %s (%s)\n", j->source, b->self, strerror(rc));
+        return -1;
+    }
+    fcntl(out_pipe[0], F_SETFL, O_NONBLOCK);
+    fcntl(err_pipe[0], F_SETFL, O_NONBLOCK);
+    j->out.fd = out_pipe[0];
+    j->err.fd = err_pipe[0];
+    j->started = now_seconds();
+    j->state = JOB_RUNNING;
+    return 0;
+}
+
+/* Reads what is available; closes the descriptor at end of file. Bytes past
+ * CAPTURE_LIMIT are read and dropped, so a chatty job never blocks. */
+static void drain(capture *c)
+{
+    char buf[65536];
+    for (;;) {
+        ssize_t n = read(c->fd, buf, sizeof buf);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return;
+        if (n <= 0) {
+            close(c->fd);
+            c->fd = -1;
+            return;
+        }
+        size_t keep = c->size >= CAPTURE_LIMIT ? 0 : (size_t)n < CAPTURE_LIMIT - c->size ? (size_t)n : CAPTURE_LIMIT - c->size;
+        if (keep && c->size + keep + 1 > c->capacity) {
+            size_t cap = 2 * (c->size + keep + 1);
+            char *p = realloc(c->bytes, cap);
+            if (!p) keep = 0;
+            else {
+                c->bytes = p;
+                c->capacity = cap;
+            }
+        }
+        if (keep) {
+            memcpy(c->bytes + c->size, buf, keep);
+            c->size += keep;
+            c->bytes[c->size] = 0;
+        }
+    }
+}
+
+/* A path the job printed, as a file_ref relative to base when below it. */
+static int ref_from_path(const char *base, char *path, file_ref *f)
+{
+    size_t n = strlen(base);
+    if (strncmp(path, base, n) == 0 && path[n] == '/' && path[n + 1]) {
+        f->name = strdup(path + n + 1);
+        free(path);
+        if (!f->name) return -1;
+    } else {
+        f->name = path;
+        f->as_opened = 1;
+    }
+    return 0;
+}
+
+static int refs_from_json(const jsonr *r, uint32_t array, const char *base, file_refs *out)
+{
+    uint32_t n = jsonr_size(r, array);
+    if (!n) return -1;
+    out->items = calloc(n, sizeof *out->items);
+    if (!out->items) return -1;
+    for (uint32_t i = 0; i < n; ++i) {
+        char *path = jsonr_string(r, jsonr_element(r, array, i));
+        if (!path || ref_from_path(base, path, &out->items[out->count])) return -1;
+        out->count++;
+    }
+    return 0;
+}
+
+/* Reads a finished job's --json summary into j->now: counts, the files it
+ * read and wrote (hashed now) and the key. */
+static int read_job_summary(const batch *b, job *j)
+{
+    jsonr r;
+    if (!j->out.bytes || jsonr_parse(&r, j->out.bytes, j->out.size) != 0) return -1;
+    record *now = &j->now;
+    uint32_t meshes = jsonr_member(&r, 0, "meshes");
+    now->meshes = jsonr_size(&r, meshes);
+    for (uint32_t m = 0; m < now->meshes; ++m) {
+        uint32_t mesh = jsonr_element(&r, meshes, m);
+        now->triangles_in += (uint64_t)jsonr_number(&r, jsonr_member(&r, mesh, "triangles"), 0);
+        uint32_t levels = jsonr_member(&r, mesh, "levels");
+        for (uint32_t k = 0; k < jsonr_size(&r, levels); ++k)
+            now->triangles_out += (uint64_t)jsonr_number(&r, jsonr_member(&r, jsonr_element(&r, levels, k), "triangles"), 0);
+    }
+    int rc = refs_from_json(&r, jsonr_member(&r, 0, "inputs"), b->source_dir, &now->inputs) ||
+             refs_from_json(&r, jsonr_member(&r, 0, "outputs"), b->output_dir, &now->outputs) ||
+             compute_key(b, j->rel, now);
+    jsonr_free(&r);
+    for (size_t i = 0; !rc && i < now->outputs.count; ++i) {
+        char *path = resolve_ref(b->output_dir, &now->outputs.items[i]);
+        rc = path ? sha256_file_hex(path, now->outputs.items[i].sha256) : -1;
+        free(path);
+    }
+    now->present = !rc;
+    return rc ? -1 : 0;
+}
+
+static void note_error(job *j, const char *fallback)
+{
+    const char *text = j->err.size ? j->err.bytes : fallback;
+    size_t n = strcspn(text, "\n");
+    j->error = malloc(n + 1);
+    if (j->error) {
+        memcpy(j->error, text, n);
+        j->error[n] = 0;
+    }
+}
+
+static void finish_job(batch *b, job *j, int status)
+{
+    j->now.seconds = now_seconds() - j->started;
+    b->finished_builds++;
+    char message[700];
+    message[0] = 0;
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
+        if (read_job_summary(b, j) == 0) {
+            j->state = JOB_BUILT;
+            if (!b->opt->quiet) relay(b, &j->err);
+            return;
+        }
+        record_free(&j->now);
+        j->exit_code = LP_IO;
+        snprintf(message, sizeof message, "lodpipe: %s: the job's summary or files could not be read back\n", j->source);
+    } else if (WIFEXITED(status)) {
+        j->exit_code = WEXITSTATUS(status);
+        if (!j->err.size) snprintf(message, sizeof message, "lodpipe: %s: the job failed with exit code %d\n", j->source, j->exit_code);
+    } else {
+        int sig = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+        j->exit_code = 128 + sig;
+        snprintf(message, sizeof message, "lodpipe: %s: the job was killed by signal %d (%s)\n", j->source, sig, strsignal(sig));
+    }
+    j->state = JOB_FAILED;
+    relay(b, &j->err);
+    if (message[0]) {
+        clear_progress(b);
+        fputs(message, stderr);
+    }
+    note_error(j, message);
+}
+
+/* ---- the run -------------------------------------------------------------------- */
+
+static int online_cores(void)
+{
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n < 1 ? 1 : n > 256 ? 256 : (int)n;
+}
+
+/* The jobs' pipeline.toml: the effective configuration, with the threads
+ * each job gets when the configuration leaves them to lodpipe. */
+static int write_job_config(batch *b, lp_error *err)
+{
+    lp_config config = *b->opt->config;
+    if (config.run.threads == 0) config.run.threads = b->threads_per_job;
+    size_t n = config_write(&config, CONFIG_TOML, NULL, 0);
+    char *text = malloc(n + 1);
+    if (!text) return lp_fail(err, LP_IO, "out of memory");
+    config_write(&config, CONFIG_TOML, text, n + 1);
+    snprintf(b->config_path, sizeof b->config_path, "%s/.lodpipe-batch-XXXXXX.toml", b->output_dir);
+    int fd = mkstemps(b->config_path, 5);
+    int rc = LP_OK;
+    if (fd < 0) {
+        rc = lp_fail(err, LP_IO, "%s: cannot write the jobs' configuration (%s)", b->output_dir, strerror(errno));
+        b->config_path[0] = 0;
+    } else {
+        size_t done = 0;
+        while (done < n) {
+            ssize_t w = write(fd, text + done, n - done);
+            if (w < 0 && errno == EINTR) continue;
+            if (w <= 0) break;
+            done += (size_t)w;
+        }
+        if (close(fd) != 0 || done != n) rc = lp_fail(err, LP_IO, "%s: cannot write (%s)", b->config_path, strerror(errno));
+    }
+    free(text);
+    return rc;
+}
+
+/* Runs every pending job, at most jobs_at_once at a time. */
+static void run_jobs(batch *b)
+{
+    size_t next = 0, running = 0;
+    struct pollfd *fds = calloc(2 * (size_t)b->jobs_at_once + 1, sizeof *fds);
+    size_t *owner = calloc(2 * (size_t)b->jobs_at_once + 1, sizeof *owner);
+    if (!fds || !owner) {
+        free(fds);
+        free(owner);
+        for (size_t i = 0; i < b->job_count; ++i)
+            if (b->jobs[i].state == JOB_PENDING) {
+                b->jobs[i].state = JOB_FAILED;
+                b->jobs[i].exit_code = LP_IO;
+            }
+        fprintf(stderr, "lodpipe: %s: out of memory\n", b->source_dir);
+        return;
+    }
+    const char *current = NULL;
+    for (;;) {
+        while (running < (size_t)b->jobs_at_once && next < b->job_count) {
+            job *j = &b->jobs[next++];
+            if (j->state != JOB_PENDING) continue;
+            if (start_job(b, j) == 0) {
+                running++;
+                current = j->rel;
+            } else {
+                j->state = JOB_FAILED;
+                b->finished_builds++;
+                note_error(j, "lodpipe: the job could not start");
+            }
+        }
+        if (!running) break;
+        show_progress(b, current);
+        size_t nfds = 0;
+        for (size_t i = 0; i < b->job_count; ++i) {
+            job *j = &b->jobs[i];
+            if (j->state != JOB_RUNNING) continue;
+            if (j->out.fd >= 0) {
+                fds[nfds] = (struct pollfd){j->out.fd, POLLIN, 0};
+                owner[nfds++] = i;
+            }
+            if (j->err.fd >= 0) {
+                fds[nfds] = (struct pollfd){j->err.fd, POLLIN, 0};
+                owner[nfds++] = i;
+            }
+        }
+        if (nfds && poll(fds, nfds, b->progress ? 500 : -1) > 0) {
+            for (size_t k = 0; k < nfds; ++k) {
+                if (!fds[k].revents) continue;
+                job *j = &b->jobs[owner[k]];
+                drain(fds[k].fd == j->out.fd ? &j->out : &j->err);
+            }
+        }
+        for (size_t i = 0; i < b->job_count; ++i) {
+            job *j = &b->jobs[i];
+            if (j->state != JOB_RUNNING || j->out.fd >= 0 || j->err.fd >= 0) continue;
+            int status = 0;
+            while (waitpid(j->pid, &status, 0) < 0 && errno == EINTR) {}
+            running--;
+            finish_job(b, j, status);
+        }
+    }
+    clear_progress(b);
+    free(fds);
+    free(owner);
+}
+
+/* ---- the summary ------------------------------------------------------------------- */
+
+typedef struct totals {
+    size_t files, built, cached, failed;
+    uint64_t meshes, triangles_in, triangles_out;
+    double job_seconds;
+} totals;
+
+static totals count_totals(const batch *b)
+{
+    totals t = {0};
+    for (size_t i = 0; i < b->job_count; ++i) {
+        const job *j = &b->jobs[i];
+        if (j->state == JOB_SKIPPED_SHARD) continue;
+        t.files++;
+        if (j->state == JOB_FAILED) {
+            t.failed++;
+            continue;
+        }
+        if (j->state == JOB_BUILT) {
+            t.built++;
+            t.job_seconds += j->now.seconds;
+        } else {
+            t.cached++;
+        }
+        t.meshes += j->now.meshes;
+        t.triangles_in += j->now.triangles_in;
+        t.triangles_out += j->now.triangles_out;
+    }
+    return t;
+}
+
+static const char *state_name(job_state s)
+{
+    return s == JOB_BUILT ? "built" : s == JOB_CACHED ? "cached" : "failed";
+}
+
+static void print_json(const batch *b, const totals *t, double wall)
+{
+    jsonw w = {0};
+    jsonw_raw(&w, "{\"source\":");
+    jsonw_string(&w, b->source_dir);
+    jsonw_raw(&w, ",\"output\":");
+    jsonw_string(&w, b->output_dir);
+    jsonw_printf(&w, ",\"jobs\":%d,\"threads_per_job\":%d,\"shard\":", b->jobs_at_once, b->threads_per_job);
+    if (b->opt->shard_count) jsonw_printf(&w, "{\"index\":%u,\"count\":%u}", b->opt->shard_index, b->opt->shard_count);
+    else jsonw_raw(&w, "null");
+    jsonw_printf(&w, ",\"files\":%zu,\"built\":%zu,\"cached\":%zu,\"failed\":%zu,\"meshes\":%llu,\"triangles_in\":%llu,"
+                     "\"triangles_out\":%llu,\"seconds\":",
+                 t->files, t->built, t->cached, t->failed, (unsigned long long)t->meshes,
+                 (unsigned long long)t->triangles_in, (unsigned long long)t->triangles_out);
+    jsonw_number(&w, wall);
+    jsonw_raw(&w, ",\"files_per_second\":");
+    jsonw_number(&w, wall > 0 ? (double)t->files / wall : 0);
+    jsonw_raw(&w, ",\"triangles_per_second\":");
+    jsonw_number(&w, wall > 0 ? (double)t->triangles_in / wall : 0);
+    jsonw_raw(&w, ",\"results\":[");
+    int first = 1;
+    for (size_t i = 0; i < b->job_count; ++i) {
+        const job *j = &b->jobs[i];
+        if (j->state == JOB_SKIPPED_SHARD) continue;
+        jsonw_raw(&w, first ? "{\"file\":" : ",{\"file\":");
+        jsonw_string(&w, j->rel);
+        jsonw_printf(&w, ",\"status\":\"%s\",\"exit\":%d,\"meshes\":%u,\"triangles_in\":%llu,\"triangles_out\":%llu,\"seconds\":",
+                     state_name(j->state), j->state == JOB_FAILED ? j->exit_code : 0, j->now.meshes,
+                     (unsigned long long)j->now.triangles_in, (unsigned long long)j->now.triangles_out);
+        jsonw_number(&w, j->now.seconds);
+        if (j->state == JOB_FAILED) {
+            jsonw_raw(&w, ",\"error\":");
+            jsonw_string(&w, j->error ? j->error : "");
+        }
+        jsonw_raw(&w, "}");
+        first = 0;
+    }
+    jsonw_raw(&w, "]}\n");
+    fputs(w.failed ? "{}\n" : w.text, stdout);
+    jsonw_free(&w);
+}
+
+static void print_table(const batch *b, const totals *t, double wall)
+{
+    printf("lodpipe batch: %s -> %s", b->source_dir, b->output_dir);
+    if (b->opt->shard_count) printf(" (shard %u/%u)", b->opt->shard_index, b->opt->shard_count);
+    printf(", -j %d, %d thread%s per job\n", b->jobs_at_once, b->threads_per_job, b->threads_per_job == 1 ? "" : "s");
+    printf("%-8s %8s %8s %14s %14s %10s\n", "", "files", "meshes", "triangles in", "triangles out", "seconds");
+    uint64_t m[2] = {0, 0}, in[2] = {0, 0}, out[2] = {0, 0};
+    double s[2] = {0, 0};
+    for (size_t i = 0; i < b->job_count; ++i) {
+        const job *j = &b->jobs[i];
+        if (j->state != JOB_BUILT && j->state != JOB_CACHED) continue;
+        int k = j->state == JOB_CACHED;
+        m[k] += j->now.meshes;
+        in[k] += j->now.triangles_in;
+        out[k] += j->now.triangles_out;
+        s[k] += j->state == JOB_BUILT ? j->now.seconds : 0;
+    }
+    printf("%-8s %8zu %8llu %14llu %14llu %10.2f\n", "built", t->built, (unsigned long long)m[0], (unsigned long long)in[0],
+           (unsigned long long)out[0], s[0]);
+    printf("%-8s %8zu %8llu %14llu %14llu %10s\n", "cached", t->cached, (unsigned long long)m[1], (unsigned long long)in[1],
+           (unsigned long long)out[1], "-");
+    printf("%-8s %8zu %8s %14s %14s %10s\n", "failed", t->failed, "-", "-", "-", "-");
+    printf("%-8s %8zu %8llu %14llu %14llu %10.2f\n", "total", t->files, (unsigned long long)t->meshes,
+           (unsigned long long)t->triangles_in, (unsigned long long)t->triangles_out, wall);
+    printf("wall %.2f s: %.2f files/s, %.0f triangles/s\n", wall, wall > 0 ? (double)t->files / wall : 0.0,
+           wall > 0 ? (double)t->triangles_in / wall : 0.0);
+    for (size_t i = 0; i < b->job_count; ++i)
+        if (b->jobs[i].state == JOB_FAILED) printf("failed: %s (exit %d)\n", b->jobs[i].rel, b->jobs[i].exit_code);
+}
+
+/* ---- setup ----------------------------------------------------------------------- */
+
+static int make_folders(const char *path)
+{
+    char *p = strdup(path);
+    if (!p) return -1;
+    int rc = 0;
+    for (char *s = strchr(p + 1, '/'); s && !rc; s = strchr(s + 1, '/')) {
+        *s = 0;
+        if (mkdir(p, 0777) != 0 && errno != EEXIST) rc = -1;
+        *s = '/';
+    }
+    if (!rc && mkdir(p, 0777) != 0 && errno != EEXIST) rc = -1;
+    free(p);
+    return rc;
+}
+
+static int prepare(batch *b, lp_error *err)
+{
+    struct stat src;
+    if (stat(b->source_dir, &src) != 0 || !S_ISDIR(src.st_mode))
+        return lp_fail(err, LP_IO, "%s: not a readable folder", b->source_dir);
+    if (make_folders(b->output_dir) != 0 || stat(b->output_dir, &b->output_stat) != 0 || !S_ISDIR(b->output_stat.st_mode))
+        return lp_fail(err, LP_IO, "%s: cannot create the output folder (%s)", b->output_dir, strerror(errno));
+    if (src.st_dev == b->output_stat.st_dev && src.st_ino == b->output_stat.st_ino)
+        return lp_fail(err, LP_USAGE, "%s: the output folder must differ from the source folder", b->output_dir);
+    ssize_t n = readlink("/proc/self/exe", b->self, sizeof b->self - 1);
+    if (n <= 0 || (size_t)n >= sizeof b->self - 1) return lp_fail(err, LP_IO, "cannot find the lodpipe binary (/proc/self/exe)");
+    b->self[n] = 0;
+    int rc = scan(b, "", 0, err);
+    if (rc) return rc;
+    qsort(b->jobs, b->job_count, sizeof *b->jobs, by_relative_path);
+    if (compute_key_prefix(b)) return lp_fail(err, LP_IO, "out of memory");
+    return LP_OK;
+}
+
+/* Marks each job as outside the shard, cached or pending. */
+static void select_jobs(batch *b)
+{
+    for (size_t i = 0; i < b->job_count; ++i) {
+        job *j = &b->jobs[i];
+        if (b->opt->shard_count && batch_shard_of(j->rel, b->opt->shard_count) != b->opt->shard_index - 1) {
+            j->state = JOB_SKIPPED_SHARD;
+            continue;
+        }
+        b->selected++;
+        if (!b->opt->force && still_cached(b, j)) {
+            j->state = JOB_CACHED;
+        } else {
+            j->state = JOB_PENDING;
+            b->to_build++;
+        }
+    }
+}
+
+static void free_batch(batch *b)
+{
+    for (size_t i = 0; i < b->job_count; ++i) {
+        job *j = &b->jobs[i];
+        free(j->rel);
+        free(j->source);
+        free(j->output);
+        free(j->error);
+        free(j->out.bytes);
+        free(j->err.bytes);
+        record_free(&j->old);
+        record_free(&j->now);
+    }
+    free(b->jobs);
+    free(b->source_dir);
+    free(b->output_dir);
+}
+
+int batch_run(const batch_options *options)
+{
+    batch b;
+    memset(&b, 0, sizeof b);
+    b.opt = options;
+    b.start = now_seconds();
+    b.source_dir = strip_slashes(options->source_dir);
+    b.output_dir = strip_slashes(options->output_dir);
+    lp_error err = {0, ""};
+    int rc = b.source_dir && b.output_dir ? prepare(&b, &err) : lp_fail(&err, LP_IO, "out of memory");
+    if (rc) {
+        fprintf(stderr, "lodpipe: %s\n", err.msg);
+        free_batch(&b);
+        return rc;
+    }
+    b.progress = !options->quiet && isatty(STDERR_FILENO);
+    load_manifest(&b);
+    select_jobs(&b);
+    const int cores = online_cores();
+    b.jobs_at_once = options->jobs > 0 ? options->jobs : cores;
+    if (b.to_build && (size_t)b.jobs_at_once > b.to_build) b.jobs_at_once = (int)b.to_build;
+    b.threads_per_job = options->config->run.threads ? options->config->run.threads
+                                                      : (cores / b.jobs_at_once > 1 ? cores / b.jobs_at_once : 1);
+    if (b.to_build) {
+        rc = write_job_config(&b, &err);
+        if (rc) {
+            fprintf(stderr, "lodpipe: %s\n", err.msg);
+            free_batch(&b);
+            return rc;
+        }
+        run_jobs(&b);
+        unlink(b.config_path);
+    }
+    double wall = now_seconds() - b.start;
+    totals t = count_totals(&b);
+    rc = write_manifest(&b, &err);
+    if (rc) fprintf(stderr, "lodpipe: %s\n", err.msg);
+    if (options->json) print_json(&b, &t, wall);
+    else print_table(&b, &t, wall);
+    fflush(stdout);
+    free_batch(&b);
+    if (t.failed) return LP_SOME_FAILED;
+    return rc;
+}

@@ -1,0 +1,296 @@
+// `lodpipe batch` and `--depfile` (issue 7): small batches written by bench/make_batch.py from the
+// corpus (variants of a few assets: .gltf with external .bin and images, .glb with an external
+// texture, Draco), run with the sanitizer build.
+//  - outputs of a batch (-j 2) byte-identical to single-file runs, tree mirrored, summary counts;
+//  - shards K/3 disjoint and together the whole batch; a sharded run keeps the other shards' cache;
+//  - a corrupt file reported in one line while the others complete, exit 5, retried next time;
+//  - the cache: unchanged -> skipped; a changed referenced .bin, a changed configuration (flag or
+//    --config file), a deleted or edited output -> rebuilt; --force rebuilds all; mtime alone does not;
+//  - --depfile contents (Make escaping of spaces and '#'), none on failure;
+//  - usage errors.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import path from 'node:path';
+import { spawnSync } from 'node:child_process';
+import {
+  corpusPath, describeRun, featureSkipReason, oneLineErrorProblems, repoRoot, runHealthProblems, runLodpipe,
+  sharedRoot, tempDir,
+} from './lib/gltf.mjs';
+
+const skip = featureSkipReason(/batch SRC_DIR/, 'offer the batch command');
+const EXIT_SOME_FAILED = 5;
+
+const ASSETS = [
+  'scenes/kenney/pavement.glb', // .glb with an external image (Textures/colormap.png)
+  'compressed/BoxDraco/BoxDraco.gltf', // Draco, .gltf + .bin
+  'scenes/CesiumMilkTruck/CesiumMilkTruck.gltf', // .gltf + .bin + .png
+  'animated/AnimatedMorphCube/AnimatedMorphCube.gltf', // morph targets
+  'scans/suzanne.glb', // a mesh that really simplifies
+];
+
+/** Writes `variants` variants of each asset below dir (bench/make_batch.py); returns the .gltf/.glb paths relative to dir. */
+function makeBatch(dir, { assets = ASSETS, variants = 2 } = {}) {
+  const r = spawnSync('python3', [path.join(repoRoot, 'bench', 'make_batch.py'), dir, '--variants', String(variants),
+    '--assets', assets.join(','), '--shared', sharedRoot], { encoding: 'utf8' });
+  assert.equal(r.status, 0, `make_batch.py failed: ${r.stderr}`);
+  return gltfFiles(dir);
+}
+
+function filesBelow(dir) {
+  const out = [];
+  const walk = (d, rel) => {
+    for (const e of fs.readdirSync(d, { withFileTypes: true })) {
+      if (e.name.startsWith('.')) continue;
+      const r = rel ? `${rel}/${e.name}` : e.name;
+      if (e.isDirectory()) walk(path.join(d, e.name), r);
+      else out.push(r);
+    }
+  };
+  walk(dir, '');
+  return out.sort();
+}
+
+const gltfFiles = (dir) => filesBelow(dir).filter((f) => /\.(gltf|glb)$/i.test(f));
+
+/** Runs lodpipe batch with --json; returns { run, summary, byStatus }. */
+function batch(src, out, extra = []) {
+  const run = runLodpipe(['batch', src, '-o', out, '--json', ...extra]);
+  assert.deepEqual(runHealthProblems(run), [], describeRun(run));
+  let summary;
+  assert.doesNotThrow(() => { summary = JSON.parse(run.stdout); }, describeRun(run));
+  const byStatus = { built: [], cached: [], failed: [] };
+  for (const r of summary.results) byStatus[r.status].push(r.file);
+  return { run, summary, byStatus };
+}
+
+/** Byte differences between the files of two trees (hidden files left out). */
+function treeDifferences(a, b) {
+  const fa = filesBelow(a), fb = filesBelow(b);
+  const problems = [];
+  for (const f of fa) if (!fb.includes(f)) problems.push(`only in ${a}: ${f}`);
+  for (const f of fb) if (!fa.includes(f)) problems.push(`only in ${b}: ${f}`);
+  for (const f of fa.filter((x) => fb.includes(x)))
+    if (!fs.readFileSync(path.join(a, f)).equals(fs.readFileSync(path.join(b, f)))) problems.push(`bytes differ: ${f}`);
+  return problems;
+}
+
+test('batch: outputs mirror the tree and equal single-file runs byte for byte; summary counts', { skip }, (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out'), single = path.join(dir, 'single');
+  const files = makeBatch(src);
+  assert.equal(files.length, ASSETS.length * 2);
+
+  const { run, summary, byStatus } = batch(src, out, ['-j', '2']);
+  assert.equal(run.status, 0, describeRun(run));
+  assert.deepEqual(byStatus.built, files, 'every file built, listed in sorted order');
+  assert.equal(summary.files, files.length);
+  assert.equal(summary.failed, 0);
+  assert.equal(summary.jobs, 2);
+
+  let meshes = 0, trianglesIn = 0, trianglesOut = 0;
+  for (const rel of files) {
+    fs.mkdirSync(path.dirname(path.join(single, rel)), { recursive: true });
+    const one = runLodpipe([path.join(src, rel), '-o', path.join(single, rel), '--json']);
+    assert.equal(one.status, 0, describeRun(one));
+    const s = JSON.parse(one.stdout);
+    meshes += s.meshes.length;
+    for (const m of s.meshes) {
+      trianglesIn += m.triangles;
+      for (const l of m.levels) trianglesOut += l.triangles;
+    }
+    // the main job's --json lists what it read and wrote
+    assert.equal(s.inputs[0], path.join(src, rel));
+    assert.equal(s.outputs[0], path.join(single, rel));
+    for (const f of [...s.inputs, ...s.outputs]) assert.ok(fs.existsSync(f), `listed file ${f} exists`);
+  }
+  assert.deepEqual(treeDifferences(single, out), [], 'batch outputs identical to single-file outputs');
+  assert.ok(filesBelow(out).some((f) => f.endsWith('Textures/colormap.png')), 'external image mirrored beside the .glb');
+  assert.ok(filesBelow(out).some((f) => f.endsWith('CesiumMilkTruck.bin')), 'external .bin beside the .gltf');
+  assert.equal(summary.meshes, meshes);
+  assert.equal(summary.triangles_in, trianglesIn);
+  assert.equal(summary.triangles_out, trianglesOut);
+  assert.ok(trianglesOut > 0, 'some mesh was simplified');
+
+  // the human-readable table (no --json) is on stdout; -j 1 gives the same bytes
+  const out1 = path.join(dir, 'out1');
+  const table = runLodpipe(['batch', src, '-o', out1, '-j', '1']);
+  assert.equal(table.status, 0, describeRun(table));
+  assert.match(table.stdout, /^built\s+10\s+/m);
+  assert.match(table.stdout, /^failed\s+0\s+/m);
+  assert.match(table.stdout, /files\/s/);
+  assert.equal(table.stderr, '', 'no progress or messages when stderr is not a terminal');
+  assert.deepEqual(treeDifferences(out, out1), [], '-j 1 and -j 2 outputs identical');
+});
+
+test('batch: shards K/3 are disjoint and complete; a sharded run keeps the other shards cached', { skip }, (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out');
+  const files = makeBatch(src, { assets: ['scenes/kenney/pavement.glb', 'compressed/BoxDraco/BoxDraco.gltf',
+    'animated/AnimatedMorphCube/AnimatedMorphCube.gltf'], variants: 5 });
+  const parts = [];
+  for (let k = 1; k <= 3; ++k) {
+    const { run, summary, byStatus } = batch(src, out, ['--shard', `${k}/3`]);
+    assert.equal(run.status, 0, describeRun(run));
+    assert.deepEqual(summary.shard, { index: k, count: 3 });
+    assert.deepEqual(byStatus.cached, [], 'nothing of this shard was built before');
+    parts.push(byStatus.built);
+  }
+  const all = parts.flat();
+  assert.equal(new Set(all).size, all.length, `shards overlap: ${JSON.stringify(parts)}`);
+  assert.deepEqual([...all].sort(), files, 'the shards together are the whole batch');
+  assert.ok(parts.filter((p) => p.length > 0).length >= 2, `15 files should not all fall into one shard: ${JSON.stringify(parts)}`);
+  // the same split again (deterministic), all cached now
+  const again = batch(src, out, ['--shard', '2/3']);
+  assert.deepEqual(again.byStatus.cached, parts[1]);
+  // the whole batch: every file cached, because each shard's run kept the others' entries
+  const whole = batch(src, out);
+  assert.deepEqual(whole.byStatus.cached, files);
+  assert.deepEqual(whole.byStatus.built, []);
+});
+
+test('batch: a corrupt file is reported in one line, the others complete, exit 5', { skip }, (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out');
+  const files = makeBatch(src, { assets: ['scenes/kenney/pavement.glb', 'compressed/BoxDraco/BoxDraco.gltf'], variants: 2 });
+  fs.mkdirSync(path.join(src, 'bad'));
+  fs.copyFileSync(corpusPath('invalid/truncated.glb'), path.join(src, 'bad', 'truncated.glb'));
+  fs.writeFileSync(path.join(src, 'bad', 'syntax.gltf'), '{"asset": {"version": "2.0"}, ');
+  const bad = ['bad/syntax.gltf', 'bad/truncated.glb'];
+
+  const { run, summary, byStatus } = batch(src, out, ['-j', '2']);
+  assert.equal(run.status, EXIT_SOME_FAILED, describeRun(run));
+  assert.deepEqual(byStatus.failed, bad);
+  assert.deepEqual(byStatus.built, files);
+  assert.equal(summary.failed, 2);
+  const lines = run.stderr.split('\n').filter((l) => l);
+  assert.equal(lines.length, 2, `one line per failed file:\n${run.stderr}`);
+  for (const f of bad) {
+    const line = lines.find((l) => l.startsWith(`lodpipe: ${path.join(src, f)}: `));
+    assert.ok(line, `a line names ${f}:\n${run.stderr}`);
+    assert.deepEqual(oneLineErrorProblems(line), []);
+    const result = summary.results.find((r) => r.file === f);
+    assert.equal(result.exit, 2, 'the job exit code (invalid input) is kept per file');
+    assert.equal(result.error, line);
+    assert.ok(!fs.existsSync(path.join(out, f)), `no output for ${f}`);
+  }
+  for (const f of files) assert.ok(fs.existsSync(path.join(out, f)), `${f} written`);
+
+  // the failures are not cached: tried again, the good files come from the cache
+  const again = batch(src, out);
+  assert.equal(again.run.status, EXIT_SOME_FAILED);
+  assert.deepEqual(again.byStatus.failed, bad);
+  assert.deepEqual(again.byStatus.cached, files);
+
+  // fixed: exit 0
+  fs.rmSync(path.join(src, 'bad'), { recursive: true });
+  const fixed = batch(src, out);
+  assert.equal(fixed.run.status, 0, describeRun(fixed.run));
+});
+
+test('batch cache: a changed .bin, configuration or output rebuilds; --force rebuilds all; mtime alone does not', { skip }, (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out');
+  const files = makeBatch(src, { assets: ['compressed/BoxDraco/BoxDraco.gltf', 'animated/AnimatedMorphCube/AnimatedMorphCube.gltf',
+    'scenes/kenney/pavement.glb'], variants: 2 });
+  const first = batch(src, out);
+  assert.deepEqual(first.byStatus.built, files);
+  assert.ok(fs.existsSync(path.join(out, '.lodpipe-cache.json')), 'the manifest is in OUT_DIR');
+  assert.deepEqual(filesBelow(out).filter((f) => f.includes('.lodpipe-')), [], 'no temp file left');
+  assert.deepEqual(batch(src, out).byStatus.cached, files, 'unchanged: all cached');
+
+  // a touch without a change of bytes keeps the cache
+  const cube0 = 'animated_AnimatedMorphCube_AnimatedMorphCube/v00/AnimatedMorphCube.gltf';
+  const future = new Date(Date.now() + 60_000);
+  fs.utimesSync(path.join(src, cube0), future, future);
+  assert.deepEqual(batch(src, out).byStatus.built, [], 'a new mtime alone does not rebuild');
+
+  // the referenced .bin of one file changes (variant 1's positions into variant 0): only that file rebuilds
+  const bin0 = path.join(src, 'animated_AnimatedMorphCube_AnimatedMorphCube/v00/AnimatedMorphCube.bin');
+  const bin1 = path.join(src, 'animated_AnimatedMorphCube_AnimatedMorphCube/v01/AnimatedMorphCube.bin');
+  assert.ok(!fs.readFileSync(bin0).equals(fs.readFileSync(bin1)), 'the variants differ');
+  fs.copyFileSync(bin1, bin0);
+  const afterBin = batch(src, out);
+  assert.deepEqual(afterBin.byStatus.built, [cube0]);
+  assert.equal(afterBin.byStatus.cached.length, files.length - 1);
+
+  // the configuration: a flag, then the same flag again (cached), then a --config file
+  const levels = batch(src, out, ['--levels', '2,5']);
+  assert.deepEqual(levels.byStatus.built, files, '--levels changes every key');
+  assert.deepEqual(batch(src, out, ['--levels', '2,5']).byStatus.cached, files);
+  assert.deepEqual(batch(src, out, ['--levels', '2,5', '--threads', '1']).byStatus.cached, files,
+    'threads do not change the output, so not the key');
+  const toml = path.join(dir, 'pipeline.toml');
+  fs.writeFileSync(toml, '[lod]\nlevels = [2, 5]\n[switching]\npixel_error = 2.0\n');
+  assert.deepEqual(batch(src, out, ['--config', toml]).byStatus.built, files, 'pixel_error from a file changes every key');
+  assert.deepEqual(batch(src, out, ['--config', toml]).byStatus.cached, files);
+
+  // outputs: deleted or edited -> rebuilt
+  const draco0 = 'compressed_BoxDraco_BoxDraco/v00/BoxDraco.gltf';
+  fs.rmSync(path.join(out, 'compressed_BoxDraco_BoxDraco/v00/BoxDraco.bin'));
+  const pave1 = 'scenes_kenney_pavement/v01/pavement.glb';
+  fs.appendFileSync(path.join(out, pave1), ' ');
+  const afterOut = batch(src, out, ['--config', toml]);
+  assert.deepEqual(afterOut.byStatus.built, [draco0, pave1]);
+  assert.ok(fs.existsSync(path.join(out, 'compressed_BoxDraco_BoxDraco/v00/BoxDraco.bin')), 'the deleted .bin is back');
+
+  // --force
+  const forced = batch(src, out, ['--config', toml, '--force']);
+  assert.deepEqual(forced.byStatus.built, files);
+
+  // a damaged manifest is a warning and an empty cache, never a failure
+  fs.writeFileSync(path.join(out, '.lodpipe-cache.json'), '{"format": 1, "entries": [');
+  const damaged = batch(src, out, ['--config', toml]);
+  assert.equal(damaged.run.status, 0, describeRun(damaged.run));
+  assert.deepEqual(damaged.byStatus.built, files);
+  assert.match(damaged.run.stderr, /warning: not a lodpipe cache manifest/);
+});
+
+test('--depfile: OUT: IN, its referenced files and the config, Make-escaped; none on failure', { skip }, (t) => {
+  const dir = tempDir(t);
+  const folder = path.join(dir, 'my truck');
+  fs.mkdirSync(folder);
+  for (const f of ['CesiumMilkTruck.gltf', 'CesiumMilkTruck0.bin', 'CesiumMilkTruck.png'])
+    fs.copyFileSync(corpusPath(`scenes/CesiumMilkTruck/${f}`), path.join(folder, f));
+  fs.writeFileSync(path.join(dir, 'pipe$line.toml'), '[lod]\nlevels = [2, 6]\n');
+  const run = runLodpipe(['my truck/CesiumMilkTruck.gltf', '-o', 'out #1.gltf', '--config', 'pipe$line.toml',
+    '--depfile', 'truck.d'], { cwd: dir });
+  assert.equal(run.status, 0, describeRun(run));
+  assert.equal(fs.readFileSync(path.join(dir, 'truck.d'), 'utf8'),
+    'out\\ \\#1.gltf: my\\ truck/CesiumMilkTruck.gltf my\\ truck/CesiumMilkTruck0.bin my\\ truck/CesiumMilkTruck.png pipe$$line.toml\n');
+
+  // a .glb without external files and no config: just OUT: IN
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(dir, 'suzanne.glb'));
+  const glb = runLodpipe(['suzanne.glb', '-o', 'sub.glb', '--depfile', 'sub.d', '--levels', '3'], { cwd: dir });
+  assert.equal(glb.status, 0, describeRun(glb));
+  assert.equal(fs.readFileSync(path.join(dir, 'sub.d'), 'utf8'), 'sub.glb: suzanne.glb\n');
+
+  // failure: no output and no depfile
+  fs.copyFileSync(corpusPath('invalid/truncated.glb'), path.join(dir, 'bad.glb'));
+  const bad = runLodpipe(['bad.glb', '-o', 'bad-out.glb', '--depfile', 'bad.d'], { cwd: dir });
+  assert.equal(bad.status, 2, describeRun(bad));
+  assert.deepEqual(oneLineErrorProblems(bad.stderr), []);
+  assert.ok(!fs.existsSync(path.join(dir, 'bad.d')) && !fs.existsSync(path.join(dir, 'bad-out.glb')));
+});
+
+test('batch and depfile usage errors exit 1 with one line', { skip }, (t) => {
+  const dir = tempDir(t);
+  const cases = [
+    ['batch', dir, '-o', dir],
+    ['batch', dir],
+    ['batch', dir, '-o', path.join(dir, 'o'), '--shard', '0/2'],
+    ['batch', dir, '-o', path.join(dir, 'o'), '--shard', '3/2'],
+    ['batch', dir, '-o', path.join(dir, 'o'), '-j', 'x'],
+    ['batch', dir, '-o', path.join(dir, 'o'), '--depfile', 'x.d'],
+    [corpusPath('scans/suzanne.glb'), '-o', path.join(dir, 'x.glb'), '-j', '2'],
+    ['inspect', corpusPath('scans/suzanne.glb'), '--shard', '1/2'],
+  ];
+  for (const args of cases) {
+    const r = runLodpipe(args);
+    assert.equal(r.status, 1, describeRun(r));
+    assert.equal(r.stderr.trim().split('\n').length, 1, describeRun(r));
+  }
+  const missing = runLodpipe(['batch', path.join(dir, 'nothing'), '-o', path.join(dir, 'o2')]);
+  assert.equal(missing.status, 4, describeRun(missing));
+  assert.ok(!fs.existsSync(path.join(dir, 'o2')), 'no output folder for a missing source');
+});
