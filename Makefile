@@ -116,6 +116,7 @@ bench: deps
 	@command -v python3 >/dev/null && python3 -c 'import numpy' 2>/dev/null || \
 	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends python3-numpy
 	python3 bench/run.py
+	python3 bench/batch.py
 
 # The independent topology oracle (OpenMesh), used by tests/simplify.test.mjs.
 $(BUILD)/mesh_check: tests/tools/mesh_check.cpp

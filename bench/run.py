@@ -25,6 +25,7 @@ usage: python3 bench/run.py [--models bunny,fandisk,...] [--skip-quality] [--ski
                             [--lodpipe PATH] [--tol 0.01] [--reps 3]
 """
 import argparse
+import re
 import datetime
 import json
 import math
@@ -752,6 +753,22 @@ def report(results, args):
     return "\n".join(L) + "\n"
 
 
+SECTION_RE = re.compile(r"<!-- section:([a-z]+) -->.*?<!-- /section:\1 -->\n?", re.S)
+
+
+def write_results(path, text):
+    """Writes RESULTS.md, keeping the sections other bench scripts own
+    (<!-- section:NAME --> ... <!-- /section:NAME -->, e.g. batch.py's)."""
+    kept = []
+    if os.path.exists(path):
+        with open(path) as f:
+            kept = [m.group(0) for m in SECTION_RE.finditer(f.read())]
+    with open(path, "w") as f:
+        f.write(text)
+        for block in kept:
+            f.write("\n" + block if not block.endswith("\n") else "\n" + block)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--lodpipe", default=os.environ.get("LODPIPE_BIN", os.path.join(ROOT, "build", "lodpipe")))
@@ -775,8 +792,7 @@ def main():
         with open(os.path.join(WORK, "results.json")) as f:
             results = json.load(f)
         COMMANDS.update(results.get("commands", {}))
-        with open(args.out, "w") as f:
-            f.write(report(results, args))
+        write_results(args.out, report(results, args))
         log("rewrote %s from bench/work/results.json" % rel(args.out))
         return
     args.shared = os.path.abspath(args.shared)
@@ -822,8 +838,7 @@ def main():
     with open(os.path.join(WORK, "results.json"), "w") as f:
         json.dump(results, f, indent=1, default=str)
     text = report(results, args)
-    with open(args.out, "w") as f:
-        f.write(text)
+    write_results(args.out, text)
     log("wrote %s (%.0f s)" % (rel(args.out), results["seconds"]))
 
 
