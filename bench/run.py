@@ -547,6 +547,10 @@ def report(results, args):
     w("")
     w("Written by `make bench` (`%s`); every figure below was measured in this one run on this machine. "
       "Measurements, not pass/fail: the issue-3 targets are quoted next to them." % results["entry"])
+    for part, built in sorted(results.get("reused", {}).items()):
+        w("")
+        w("Exception: the %s figures come from the previous run (`--skip-%s --reuse`), made with a lodpipe "
+          "built %s; the table below describes this run." % (part, part, built))
     w("")
     w("| | |")
     w("|---|---|")
@@ -784,6 +788,9 @@ def main():
     ap.add_argument("--max-probes", type=int, default=30)
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--out", default=os.path.join(BENCH, "RESULTS.md"))
+    ap.add_argument("--reuse", action="store_true",
+                    help="with --skip-quality or --skip-speed: keep that part from bench/work/results.json "
+                         "(the previous run), so the two parts can be measured at different times")
     ap.add_argument("--report-only", action="store_true",
                     help="rewrite RESULTS.md from bench/work/results.json without measuring")
     args = ap.parse_args()
@@ -833,6 +840,15 @@ def main():
                 results.setdefault("failures", []).append("%s: %s" % (m, e))
     if not args.skip_speed:
         results["speed"] = speed(tools, args, have_lodpipe)
+    previous_path = os.path.join(WORK, "results.json")
+    if args.reuse and os.path.exists(previous_path):
+        with open(previous_path) as f:
+            previous = json.load(f)
+        for part, skipped in (("quality", args.skip_quality), ("speed", args.skip_speed)):
+            if skipped and part in previous:
+                results[part] = previous[part]
+                results.setdefault("reused", {})[part] = previous.get("machine", {}).get("lodpipe_mtime")
+                COMMANDS.update({k: v for k, v in previous.get("commands", {}).items() if k not in COMMANDS})
     results["seconds"] = time.monotonic() - T_START
     results["commands"] = COMMANDS
     with open(os.path.join(WORK, "results.json"), "w") as f:
