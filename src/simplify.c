@@ -735,6 +735,16 @@ static int commit(sim *s, const candidate *c)
     }
     s->vertex_first[u] = NONE;
     prune_corner_list(s, v);
+    /* the far corners of the faces that died: their lists would otherwise
+     * carry dead corners through every later walk of the neighbourhood */
+    for (size_t i = 0; i < sc->faces_u.size; ++i) {
+        uint32_t f = sc->faces_u.data[i];
+        if (s->face_alive[f]) continue;
+        for (int k = 0; k < 3; ++k) {
+            uint32_t x = s->corner_vertex[3 * f + k];
+            if (x != u && x != v) prune_corner_list(s, x);
+        }
+    }
     quadric_add(&s->quadrics[v], &s->quadrics[u]);
     s->vertex_alive[u] = 0;
     s->death[u] = (uint8_t)(s->level + 1);
