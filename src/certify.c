@@ -130,23 +130,30 @@ static void split4(const vec3d p[3], vec3d out[4][3])
 
 #define OVERLAY_MAX_ORIGINALS 256 /* more originals under one face: subdivision instead */
 
+enum { FLOOD_PENDING = 0, FLOOD_ACCEPTED = 1, FLOOD_PASSED_OVER = 2 };
+
 typedef struct flood {
     uint32_t id[OVERLAY_MAX_ORIGINALS];
     uint8_t required[OVERLAY_MAX_ORIGINALS];
+    uint8_t state[OVERLAY_MAX_ORIGINALS];
     uint32_t count;
 } flood;
 
+/* Queues original t (once). Returns 0 when the flood must fail: it is full,
+ * or t is required now but was already passed over as an optional corner
+ * triangle (its piece was empty or it was not a witness), so the edge that
+ * needs it has no accepted neighbour. */
 static int flood_add(flood *q, uint32_t t, int required)
 {
     for (uint32_t i = 0; i < q->count; ++i)
         if (q->id[i] == t) {
-            /* already seen: a required visit of a triangle first seen as an
-             * optional corner triangle makes it required */
+            if (required && q->state[i] == FLOOD_PASSED_OVER) return 0;
             q->required[i] |= (uint8_t)required;
             return 1;
         }
     if (q->count == OVERLAY_MAX_ORIGINALS) return 0;
     q->id[q->count] = t;
+    q->state[q->count] = FLOOD_PENDING;
     q->required[q->count++] = (uint8_t)required;
     return 1;
 }
@@ -203,8 +210,10 @@ static int overlay_a(const cert_original *o, face_filter *filter, const vec3d p[
             /* a corner triangle that does not reach into F is no concern; a
              * piece that is too far, or a required neighbour missing, is */
             if (q.required[i] || (piece == OVERLAY_PIECE && ok)) return 0;
+            q.state[i] = FLOOD_PASSED_OVER;
             continue;
         }
+        q.state[i] = FLOOD_ACCEPTED;
         if (m > worst) worst = m;
         if (!centroid) centroid = overlay_covers_centroid(&sub, tri);
         const uint32_t *tv = o->triangles + 3 * (size_t)t;
