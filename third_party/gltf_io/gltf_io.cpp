@@ -882,12 +882,10 @@ void build_records(gltf_doc *doc)
 
 void mark_referenced_views(gltf_doc *doc);
 
-void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
+// Parses the bytes of a file that was read from (or stands for) `path`; the
+// path names the folder external uris are resolved against.
+void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_t> &file, const gltf_load_options &opt)
 {
-    const uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
-    std::vector<uint8_t> file;
-    std::string why;
-    if (!read_file(path, cap, &file, &why)) fail(errno == ENOENT || why.compare(0, 11, "cannot read") == 0 ? GLTF_IO : GLTF_INVALID, why);
     if (file.empty()) fail(GLTF_INVALID, "file is empty");
     doc->path = path;
     doc->dir = dir_of(path);
@@ -923,19 +921,23 @@ void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
     build_records(doc);
 }
 
-} // namespace
+void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
+{
+    const uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
+    std::vector<uint8_t> file;
+    std::string why;
+    if (!read_file(path, cap, &file, &why)) fail(errno == ENOENT || why.compare(0, 11, "cannot read") == 0 ? GLTF_IO : GLTF_INVALID, why);
+    load_bytes(doc, path, file, opt);
+}
 
-// ---- C API: loading and reading ----------------------------------------------------
-
-extern "C" int gltf_load(const char *path, const gltf_load_options *options, gltf_doc **out, char *err, size_t errlen)
+// Runs one of the loaders above, turning every failure into a status and a message.
+template <typename F> int guarded_load(F &&run, gltf_doc **out, char *err, size_t errlen)
 {
     *out = nullptr;
-    gltf_load_options opt{};
-    if (options) opt = *options;
     gltf_doc *doc = nullptr;
     try {
         doc = new gltf_doc;
-        load(doc, path, opt);
+        run(doc);
         *out = doc;
         return GLTF_OK;
     } catch (const Failure &f) {
@@ -951,6 +953,32 @@ extern "C" int gltf_load(const char *path, const gltf_load_options *options, glt
         delete doc;
         return GLTF_INVALID;
     }
+}
+
+} // namespace
+
+// ---- C API: loading and reading ----------------------------------------------------
+
+extern "C" int gltf_load(const char *path, const gltf_load_options *options, gltf_doc **out, char *err, size_t errlen)
+{
+    gltf_load_options opt{};
+    if (options) opt = *options;
+    return guarded_load([&](gltf_doc *doc) { load(doc, path, opt); }, out, err, errlen);
+}
+
+extern "C" int gltf_load_memory(const void *bytes, size_t size, const char *path, const gltf_load_options *options,
+                                gltf_doc **out, char *err, size_t errlen)
+{
+    gltf_load_options opt{};
+    if (options) opt = *options;
+    return guarded_load(
+        [&](gltf_doc *doc) {
+            const uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
+            if (size > cap) fail(GLTF_INVALID, "is larger than the " + std::to_string(cap) + "-byte limit");
+            const uint8_t *b = static_cast<const uint8_t *>(bytes);
+            load_bytes(doc, path, std::vector<uint8_t>(b, b + size), opt);
+        },
+        out, err, errlen);
 }
 
 extern "C" void gltf_free(gltf_doc *doc) { delete doc; }
