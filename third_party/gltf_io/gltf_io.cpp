@@ -41,6 +41,10 @@ using ojson = nlohmann::ordered_json;
 namespace {
 
 const uint64_t kDefaultMaxFileBytes = 2ull << 30; // 2 GiB
+// JSON arrays/objects nested deeper than this are refused before parsing: nlohmann
+// copies (and tinygltf walks) values recursively, and ~20,000 levels overflow the
+// stack. glTF itself nests about 8 levels; extras get the rest.
+const size_t kMaxJsonDepth = 512;
 const char *kDraco = "KHR_draco_mesh_compression";
 const char *kMeshopt = "EXT_meshopt_compression";
 
@@ -882,6 +886,27 @@ void build_records(gltf_doc *doc)
 
 void mark_referenced_views(gltf_doc *doc);
 
+// True when the JSON text nests arrays/objects deeper than `limit` (strings skipped).
+bool json_too_deep(const std::string &text, size_t limit)
+{
+    size_t depth = 0;
+    bool in_string = false;
+    for (size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (in_string) {
+            if (c == '\\') ++i;
+            else if (c == '"') in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > limit) return true;
+        } else if ((c == ']' || c == '}') && depth) {
+            --depth;
+        }
+    }
+    return false;
+}
+
 // Parses the bytes of a file that was read from (or stands for) `path`; the
 // path names the folder external uris are resolved against.
 void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_t> &file, const gltf_load_options &opt)
@@ -898,6 +923,8 @@ void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_
     if (glb) parse_glb(file, &text, &bin, &bin_size);
     else text.assign(file.begin(), file.end());
 
+    if (json_too_deep(text, kMaxJsonDepth))
+        fail(GLTF_INVALID, "JSON nests arrays and objects deeper than " + std::to_string(kMaxJsonDepth) + " levels");
     try {
         doc->json = ojson::parse(text);
     } catch (const ojson::parse_error &e) {
