@@ -22,7 +22,7 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { spawnSync } from 'node:child_process';
 import {
-  corpusPath, describeRun, listFilesRecursive, oneLineErrorProblems, repoRoot, runHealthProblems, runLodpipe,
+  corpusPath, describeRun, listFilesRecursive, oneLineErrorProblems, parseGlb, repoRoot, runHealthProblems, runLodpipe,
   skipWithoutBinary, successStderrProblems, tempDir,
 } from './lib/gltf.mjs';
 import { BUILD, CHAIN_ASPECTS, analyzeChain, formatProblems, hausdorffAvailable } from './lib/lodcheck.mjs';
@@ -256,6 +256,18 @@ test('limits: refused before allocation, with a one-line error', { skip }, async
     const f = path.join(dir, 'huge_sparse.glb');
     writeGlb(f, m.json, m.bin);
     assertRefused(st, f, 2, /accessors\[0\]/);
+  });
+
+  await t.test('a meshopt stream of 71 bytes declaring 64 GiB decoded -> exit 2 (nothing allocated)', (st) => {
+    const { json, bin } = parseGlb(fs.readFileSync(corpusPath('compressed/BoxMeshopt.glb')));
+    const view = json.bufferViews.find((v) => v.extensions?.EXT_meshopt_compression?.mode === 'ATTRIBUTES');
+    const m = view.extensions.EXT_meshopt_compression;
+    m.count = 2 ** 36 / m.byteStride;
+    view.byteLength = 2 ** 36;
+    json.buffers[view.buffer].byteLength = (view.byteOffset || 0) + view.byteLength;
+    const f = path.join(dir, 'meshopt_bomb.glb');
+    writeGlb(f, json, Buffer.from(bin));
+    assertRefused(st, f, 2, /meshopt declares/);
   });
 
   await t.test('a triangle strip of 2^31 indices declared on a tiny view -> exit 2', (st) => {

@@ -45,6 +45,9 @@ const uint64_t kDefaultMaxFileBytes = 2ull << 30; // 2 GiB
 // copies (and tinygltf walks) values recursively, and ~20,000 levels overflow the
 // stack. glTF itself nests about 8 levels; extras get the rest.
 const size_t kMaxJsonDepth = 512;
+// Largest decoded / compressed size ratio accepted from EXT_meshopt_compression (the
+// codecs of libmeshoptimizer 0.18 stay below 64; room left for later versions).
+const uint64_t kMeshoptMaxExpansion = 4096;
 const char *kDraco = "KHR_draco_mesh_compression";
 const char *kMeshopt = "EXT_meshopt_compression";
 
@@ -637,6 +640,12 @@ void decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view)
     const std::vector<uint8_t> &src = doc->model.buffers[u64(m, "buffer", 0)].data;
     const uint8_t *in = src.data() + u64(m, "byteOffset", 0);
     size_t in_len = size_t(u64(m, "byteLength", 0));
+    // The decoded size is only declared; the stream bounds it (the vertex codec needs at
+    // least 2 header bits per 16 bytes, the index codecs a byte per triangle or index), so a
+    // declaration far beyond that is refused before the output is allocated.
+    if (length > kMeshoptMaxExpansion * uint64_t(in_len) + 4096)
+        fail(GLTF_INVALID, path + ": meshopt declares " + std::to_string(length) + " decoded bytes from " +
+                               std::to_string(in_len) + " compressed bytes (no stream expands that much)");
     ViewBytes &out = doc->views[v];
     out.owned.assign(size_t(length), 0);
     int rc = -1;
