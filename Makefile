@@ -156,7 +156,7 @@ fuzz: fuzz-build
 	    -artifact_prefix=$(BUILD)/fuzz/crashes/$$name/ \
 	    $(BUILD)/fuzz/corpus/$$name $(BUILD)/fuzz/seeds/$$name 2>$(BUILD)/fuzz/fuzz_$$name.log \
 	  || { tail -n 60 $(BUILD)/fuzz/fuzz_$$name.log; exit 1; }; \
-	  grep -E "^#[0-9]+ +DONE|stat::number_of_executed_units|stat::peak_rss_mb" $(BUILD)/fuzz/fuzz_$$name.log | tr '\n' ' '; echo; \
+	  grep -E "^#[0-9]+[[:space:]]+DONE|stat::number_of_executed_units|stat::peak_rss_mb" $(BUILD)/fuzz/fuzz_$$name.log | tr '\n' ' '; echo; \
 	done
 
 # ---- benchmarks: quality and speed against meshoptimizer, into bench/RESULTS.md --------
