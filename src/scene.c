@@ -404,9 +404,10 @@ static int zero_area(const float *positions, const uint32_t *tri)
 
 /* Warns about what the simplifier tolerates but a user should hear of:
  * triangle primitives without triangles, zero-area and duplicate triangles,
- * vertices no triangle uses, non-finite attribute values (positions are
- * checked at load), and a mesh whose triangles span no volume (diagonal 0:
- * it gets no levels). Nothing is changed. */
+ * vertices no triangle uses (when no other object reads the POSITION
+ * accessor), non-finite attribute values (positions are checked at load),
+ * and a mesh whose triangles span no volume (diagonal 0: it gets no levels).
+ * Nothing is changed. */
 static void warn_degenerate(scene *s, uint32_t m)
 {
     const scene_mesh *mesh = &s->meshes[m];
@@ -434,6 +435,11 @@ static void warn_degenerate(scene *s, uint32_t m)
         }
         for (uint32_t v = 0; used && v < p->vertex_count; ++v) unused += !used[v];
         free(used);
+        /* vertices another primitive also reads (a LOD mesh shares its original's) may be its */
+        const scene_stream *position = NULL;
+        for (uint32_t a = 0; a < p->stream_count; ++a)
+            if (p->streams[a].values == p->positions) position = &p->streams[a];
+        if (position && gltf_accessor_refs(s->doc, (size_t)position->accessor) > 1) unused = 0;
         uint32_t duplicates = duplicate_triangles(p);
         if (flat)
             warn(s, "meshes[%u].primitives[%u]: %u of %u triangles have no area (kept in LOD0; levels may drop them)",
