@@ -109,13 +109,15 @@ test: deps
 	$(MAKE) all asan hausdorff $(BUILD)/mesh_check fuzz-build
 	LODPIPE_BIN=$(abspath $(BUILD)/asan/lodpipe) LODPIPE_BUILD=$(abspath $(BUILD)) \
 	LODPIPE_SHARED=$(SHARED) node --test --test-concurrency=2 tests/
-	$(MAKE) --no-print-directory fuzz FUZZ_SECONDS=$(FUZZ_TEST_SECONDS) FUZZ_SEED=1
+	rm -rf $(BUILD)/fuzz/test-corpus
+	$(MAKE) --no-print-directory fuzz FUZZ_SECONDS=$(FUZZ_TEST_SECONDS) FUZZ_SEED=1 FUZZ_CORPUS=$(BUILD)/fuzz/test-corpus
 
 # ---- fuzzing: libFuzzer harnesses (tests/fuzz/fuzz_*.c) --------------------------------
 # The library is built a third time, with clang and -fsanitize=fuzzer-no-link,address,
 # undefined, into build/fuzz/ (the C++ bridges with clang++). `make fuzz` runs every
 # harness for FUZZ_SECONDS on its corpus build/fuzz/corpus/<name> (kept between runs),
-# seeded from ../shared/assets, the degenerate-geometry files and tests/regressions/.
+# seeded from ../shared/assets, the degenerate-geometry files and tests/regressions/;
+# make test starts from the seeds alone (FUZZ_CORPUS=build/fuzz/test-corpus, emptied).
 # A crash leaves its input in build/fuzz/crashes/<name>/ and fails the target: copy it
 # to tests/regressions/ with its expectation in tests/regressions/manifest.json.
 FUZZ_CC      ?= clang
@@ -123,6 +125,7 @@ FUZZ_CXX     ?= clang++
 FUZZ_SECONDS ?= 600
 FUZZ_TEST_SECONDS ?= 30
 FUZZ_SEED    ?= 0
+FUZZ_CORPUS  ?= $(BUILD)/fuzz/corpus
 FUZZ_SAN     := -O1 -g -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 FUZZ_NAMES   := $(patsubst tests/fuzz/fuzz_%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_BIN     := $(FUZZ_NAMES:%=$(BUILD)/fuzz/fuzz_%)
@@ -149,12 +152,12 @@ fuzz: fuzz-build
 	@python3 tests/tools/make_degenerate.py $(BUILD)/fuzz/degenerate >/dev/null
 	@python3 tests/fuzz/make_seeds.py $(SHARED)/assets $(BUILD)/fuzz/seeds $(BUILD)/fuzz/degenerate tests/regressions
 	@set -e; for name in $(FUZZ_NAMES); do \
-	  mkdir -p $(BUILD)/fuzz/corpus/$$name $(BUILD)/fuzz/crashes/$$name; \
+	  mkdir -p $(FUZZ_CORPUS)/$$name $(BUILD)/fuzz/crashes/$$name; \
 	  echo "fuzz_$$name: $(FUZZ_SECONDS) s"; \
 	  nice $(BUILD)/fuzz/fuzz_$$name -max_total_time=$(FUZZ_SECONDS) -seed=$(FUZZ_SEED) -max_len=65536 \
 	    -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 \
 	    -artifact_prefix=$(BUILD)/fuzz/crashes/$$name/ \
-	    $(BUILD)/fuzz/corpus/$$name $(BUILD)/fuzz/seeds/$$name 2>$(BUILD)/fuzz/fuzz_$$name.log \
+	    $(FUZZ_CORPUS)/$$name $(BUILD)/fuzz/seeds/$$name 2>$(BUILD)/fuzz/fuzz_$$name.log \
 	  || { tail -n 60 $(BUILD)/fuzz/fuzz_$$name.log; exit 1; }; \
 	  grep -E "^#[0-9]+[[:space:]]+DONE|stat::number_of_executed_units|stat::peak_rss_mb" $(BUILD)/fuzz/fuzz_$$name.log | tr '\n' ' '; echo; \
 	done

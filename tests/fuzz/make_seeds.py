@@ -29,7 +29,7 @@ def embedded(path):
         return data
     try:
         doc = json.loads(data)
-    except ValueError:
+    except (ValueError, RecursionError):  # not JSON, or nested too deep for Python: the bytes as they are
         return data
     if not isinstance(doc, dict):
         return data
