@@ -5,6 +5,7 @@
 #   make run     deps + build + the main job on the default scene (output in out/)
 #   make test    deps + build + sanitizer build + every test
 #   make bench   benchmarks into bench/RESULTS.md
+#   make fuzz    libFuzzer harnesses (clang) for FUZZ_SECONDS each (tests/fuzz/)
 #
 # src/ is C11 and must build warning-free; third_party/ holds the thin C++17
 # bridges to tinygltf, Draco (and later toml++).
@@ -17,8 +18,8 @@ SHARED  ?= $(abspath ../shared)
 # Libraries are checked with dpkg; tools by their command, so a machine whose node
 # or compiler came from elsewhere is not asked to install a conflicting package.
 DEBIAN_PACKAGES := pkg-config libtinygltf-dev nlohmann-json3-dev libstb-dev libdraco-dev \
-	libmeshoptimizer-dev libopenmesh-dev libtomlplusplus-dev libcgal-dev
-DEBIAN_TOOLS := g++:g++ make:make python3:python3 node:nodejs npm:npm
+	libmeshoptimizer-dev libopenmesh-dev libtomlplusplus-dev libcgal-dev libclang-rt-14-dev
+DEBIAN_TOOLS := g++:g++ make:make python3:python3 node:nodejs npm:npm clang:clang
 
 CPPFLAGS_COMMON := -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L -Isrc -Ithird_party
 CFLAGS_COMMON   := -std=c11 -Wall -Wextra -Werror -pthread
@@ -38,7 +39,7 @@ LIB_OBJ_SAN := $(LIB_C:%.c=$(BUILD)/asan/obj/%.o) $(SRC_CXX:%.cpp=$(BUILD)/asan/
 OBJ_SAN  := $(BUILD)/asan/obj/src/main.o $(LIB_OBJ_SAN)
 UNIT_BIN := $(UNIT_SRC:tests/unit/%.c=$(BUILD)/asan/%)
 
-.PHONY: all deps run test unit asan clean bench hausdorff
+.PHONY: all deps run test unit asan clean bench hausdorff fuzz fuzz-build
 all: $(BUILD)/lodpipe
 
 $(BUILD)/lodpipe: $(OBJ)
@@ -105,9 +106,61 @@ export ASAN_OPTIONS  := detect_leaks=1:abort_on_error=0:halt_on_error=1
 export UBSAN_OPTIONS := halt_on_error=1:print_stacktrace=1
 
 test: deps
-	$(MAKE) all asan hausdorff $(BUILD)/mesh_check
+	$(MAKE) all asan hausdorff $(BUILD)/mesh_check fuzz-build
 	LODPIPE_BIN=$(abspath $(BUILD)/asan/lodpipe) LODPIPE_BUILD=$(abspath $(BUILD)) \
 	LODPIPE_SHARED=$(SHARED) node --test --test-concurrency=2 tests/
+	rm -rf $(BUILD)/fuzz/test-corpus
+	$(MAKE) --no-print-directory fuzz FUZZ_SECONDS=$(FUZZ_TEST_SECONDS) FUZZ_SEED=1 FUZZ_CORPUS=$(BUILD)/fuzz/test-corpus
+
+# ---- fuzzing: libFuzzer harnesses (tests/fuzz/fuzz_*.c) --------------------------------
+# The library is built a third time, with clang and -fsanitize=fuzzer-no-link,address,
+# undefined, into build/fuzz/ (the C++ bridges with clang++). `make fuzz` runs every
+# harness for FUZZ_SECONDS on its corpus build/fuzz/corpus/<name> (kept between runs),
+# seeded from ../shared/assets, the degenerate-geometry files and tests/regressions/;
+# make test starts from the seeds alone (FUZZ_CORPUS=build/fuzz/test-corpus, emptied).
+# A crash leaves its input in build/fuzz/crashes/<name>/ and fails the target: copy it
+# to tests/regressions/ with its expectation in tests/regressions/manifest.json.
+FUZZ_CC      ?= clang
+FUZZ_CXX     ?= clang++
+FUZZ_SECONDS ?= 600
+FUZZ_TEST_SECONDS ?= 30
+FUZZ_SEED    ?= 0
+FUZZ_CORPUS  ?= $(BUILD)/fuzz/corpus
+FUZZ_SAN     := -O1 -g -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
+FUZZ_NAMES   := $(patsubst tests/fuzz/fuzz_%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
+FUZZ_BIN     := $(FUZZ_NAMES:%=$(BUILD)/fuzz/fuzz_%)
+FUZZ_LIB_OBJ := $(LIB_C:%.c=$(BUILD)/fuzz/obj/%.o) $(SRC_CXX:%.cpp=$(BUILD)/fuzz/obj/%.o)
+
+fuzz-build: $(FUZZ_BIN)
+# reached only through the pattern rule below: keep them, or make deletes them as intermediates
+.SECONDARY: $(FUZZ_LIB_OBJ)
+
+$(BUILD)/fuzz/obj/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(FUZZ_CC) $(CPPFLAGS_COMMON) $(CFLAGS_COMMON) $(FUZZ_SAN) -fsanitize=fuzzer-no-link -MMD -MP -c $< -o $@
+
+$(BUILD)/fuzz/obj/%.o: %.cpp
+	@mkdir -p $(dir $@)
+	$(FUZZ_CXX) $(CPPFLAGS_COMMON) $(CXXFLAGS_COMMON) $(FUZZ_SAN) -fsanitize=fuzzer-no-link -MMD -MP -c $< -o $@
+
+$(BUILD)/fuzz/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h $(FUZZ_LIB_OBJ)
+	$(FUZZ_CC) $(CPPFLAGS_COMMON) $(CFLAGS_COMMON) $(FUZZ_SAN) -fsanitize=fuzzer -Itests/fuzz -c $< -o $@.o
+	$(FUZZ_CXX) $(FUZZ_SAN) -fsanitize=fuzzer -o $@ $@.o $(FUZZ_LIB_OBJ) $(LIBS)
+
+# -timeout: one input taking longer is a hang (a bug); -rss_limit_mb: so is runaway memory.
+fuzz: fuzz-build
+	@python3 tests/tools/make_degenerate.py $(BUILD)/fuzz/degenerate >/dev/null
+	@python3 tests/fuzz/make_seeds.py $(SHARED)/assets $(BUILD)/fuzz/seeds $(BUILD)/fuzz/degenerate tests/regressions
+	@set -e; for name in $(FUZZ_NAMES); do \
+	  mkdir -p $(FUZZ_CORPUS)/$$name $(BUILD)/fuzz/crashes/$$name; \
+	  echo "fuzz_$$name: $(FUZZ_SECONDS) s"; \
+	  nice $(BUILD)/fuzz/fuzz_$$name -max_total_time=$(FUZZ_SECONDS) -seed=$(FUZZ_SEED) -max_len=65536 \
+	    -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 \
+	    -artifact_prefix=$(BUILD)/fuzz/crashes/$$name/ \
+	    $(FUZZ_CORPUS)/$$name $(BUILD)/fuzz/seeds/$$name 2>$(BUILD)/fuzz/fuzz_$$name.log \
+	  || { tail -n 60 $(BUILD)/fuzz/fuzz_$$name.log; exit 1; }; \
+	  grep -E "^#[0-9]+[[:space:]]+DONE|stat::number_of_executed_units|stat::peak_rss_mb" $(BUILD)/fuzz/fuzz_$$name.log | tr '\n' ' '; echo; \
+	done
 
 # ---- benchmarks: quality and speed against meshoptimizer, into bench/RESULTS.md --------
 # Measurements, not tests (about 40 minutes on this 2-core machine).

@@ -476,6 +476,9 @@ static int cmd_lod(const cli *c)
         lodchain_summary sum;
         memset(&sum, 0, sizeof sum);
         rc = weld_and_simplify(mesh, &opt, &w, &r, &err);
+        if (!rc && w.stats.degenerate_dangling && !c->quiet)
+            fprintf(stderr, "lodpipe: %s: warning: meshes[%u]: %u zero-area triangles may lie off its surface; "
+                            "the mesh is left without LOD levels\n", in, m, w.stats.degenerate_dangling);
         if (!rc) {
             rc = lodchain_write(&s, m, &w, &r, &chain, &sum, &err);
             weld_free(&w);

@@ -352,6 +352,110 @@ static void mesh_bounds(scene_mesh *m)
     m->diagonal = sqrt(d2);
 }
 
+/* ---- degenerate geometry: kept, but named in a warning ------------------------------ */
+
+static int compare_triangle_keys(const void *a, const void *b)
+{
+    const uint32_t *x = a, *y = b;
+    for (int k = 0; k < 3; ++k)
+        if (x[k] != y[k]) return x[k] < y[k] ? -1 : 1;
+    return 0;
+}
+
+static void sort3(uint32_t k[3])
+{
+    for (int pass = 0; pass < 2; ++pass)
+        for (int i = 0; i < 2; ++i)
+            if (k[i] > k[i + 1]) {
+                uint32_t x = k[i];
+                k[i] = k[i + 1];
+                k[i + 1] = x;
+            }
+}
+
+/* Triangles of a primitive that use the same three vertices as an earlier one
+ * (in any order or winding); 0 when the scratch cannot be allocated. */
+static uint32_t duplicate_triangles(const scene_primitive *p)
+{
+    uint32_t *keys = malloc(((size_t)p->triangle_count + 1) * 3 * sizeof *keys);
+    if (!keys) return 0;
+    for (uint32_t t = 0; t < p->triangle_count; ++t) {
+        uint32_t *key = keys + 3 * (size_t)t;
+        memcpy(key, p->triangles + 3 * (size_t)t, 3 * sizeof *key);
+        sort3(key);
+    }
+    qsort(keys, p->triangle_count, 3 * sizeof *keys, compare_triangle_keys);
+    uint32_t duplicates = 0;
+    for (uint32_t t = 1; t < p->triangle_count; ++t)
+        if (compare_triangle_keys(keys + 3 * (size_t)t, keys + 3 * (size_t)(t - 1)) == 0) duplicates++;
+    free(keys);
+    return duplicates;
+}
+
+static int zero_area(const float *positions, const uint32_t *tri)
+{
+    const float *a = positions + 3 * (size_t)tri[0], *b = positions + 3 * (size_t)tri[1],
+                *c = positions + 3 * (size_t)tri[2];
+    const double u[3] = {(double)b[0] - a[0], (double)b[1] - a[1], (double)b[2] - a[2]};
+    const double v[3] = {(double)c[0] - a[0], (double)c[1] - a[1], (double)c[2] - a[2]};
+    const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+    return n[0] == 0.0 && n[1] == 0.0 && n[2] == 0.0;
+}
+
+/* Warns about what the simplifier tolerates but a user should hear of:
+ * triangle primitives without triangles, zero-area and duplicate triangles,
+ * vertices no triangle uses (when no other object reads the POSITION
+ * accessor), non-finite attribute values (positions are checked at load),
+ * and a mesh whose triangles span no volume (diagonal 0: it gets no levels).
+ * Nothing is changed. */
+static void warn_degenerate(scene *s, uint32_t m)
+{
+    const scene_mesh *mesh = &s->meshes[m];
+    for (uint32_t pi = 0; pi < mesh->primitive_count; ++pi) {
+        const scene_primitive *p = &mesh->primitives[pi];
+        if (p->skipped) continue;
+        for (uint32_t a = 0; a < p->stream_count; ++a) {
+            const scene_stream *st = &p->streams[a];
+            size_t bad = 0;
+            for (size_t i = 0; i < (size_t)p->vertex_count * st->components; ++i) bad += !isfinite(st->values[i]);
+            if (bad)
+                warn(s, "meshes[%u].primitives[%u].attributes.%s: %zu values are NaN or infinite (copied as they are)",
+                     m, pi, st->name, bad);
+        }
+        if (p->mode < 4) continue;
+        if (!p->triangle_count) {
+            warn(s, "meshes[%u].primitives[%u] has no triangle", m, pi);
+            continue;
+        }
+        uint32_t flat = 0, unused = 0;
+        uint8_t *used = calloc((size_t)p->vertex_count + 1, 1);
+        for (uint32_t t = 0; t < p->triangle_count; ++t) {
+            flat += (uint32_t)zero_area(p->positions, p->triangles + 3 * (size_t)t);
+            for (int k = 0; used && k < 3; ++k) used[p->triangles[3 * (size_t)t + k]] = 1;
+        }
+        for (uint32_t v = 0; used && v < p->vertex_count; ++v) unused += !used[v];
+        free(used);
+        /* vertices another primitive also reads (a LOD mesh shares its original's) may be its */
+        const scene_stream *position = NULL;
+        for (uint32_t a = 0; a < p->stream_count; ++a)
+            if (p->streams[a].values == p->positions) position = &p->streams[a];
+        if (position && gltf_accessor_refs(s->doc, (size_t)position->accessor) > 1) unused = 0;
+        uint32_t duplicates = duplicate_triangles(p);
+        if (flat)
+            warn(s, "meshes[%u].primitives[%u]: %u of %u triangles have no area (kept in LOD0; levels may drop them)",
+                 m, pi, flat, p->triangle_count);
+        if (duplicates)
+            warn(s, "meshes[%u].primitives[%u]: %u triangles repeat the vertices of another (kept in LOD0)", m, pi,
+                 duplicates);
+        if (unused)
+            warn(s, "meshes[%u].primitives[%u]: %u of %u vertices are used by no triangle (ignored for the bounds)",
+                 m, pi, unused, p->vertex_count);
+    }
+    if (mesh->triangle_count && !(mesh->diagonal > 0))
+        warn(s, "meshes[%u]: its triangles span no space (bounding-box diagonal %g): it gets no LOD levels", m,
+             mesh->diagonal);
+}
+
 static int load_meshes(scene *s, lp_error *err)
 {
     const size_t n = gltf_count(s->doc, GLTF_MESHES);
@@ -370,6 +474,7 @@ static int load_meshes(scene *s, lp_error *err)
             if (rc) return rc;
         }
         mesh_bounds(mesh);
+        warn_degenerate(s, (uint32_t)m);
     }
     for (uint32_t i = 0; i < s->node_count; ++i)
         if (s->nodes[i].in_scene && s->nodes[i].mesh >= 0) s->meshes[s->nodes[i].mesh].instance_count++;
@@ -386,18 +491,34 @@ static int load_meshes(scene *s, lp_error *err)
     return LP_OK;
 }
 
+/* Builds the model over a loaded document (or cleans up after a failed load). */
+static int scene_build(scene *out, int load_rc, const char *load_msg, lp_error *err)
+{
+    if (load_rc) return lp_fail(err, load_rc, "%s", load_msg);
+    int rc = load_nodes(out, err);
+    if (!rc) rc = mark_scene(out, err);
+    if (!rc) rc = load_meshes(out, err);
+    if (rc) scene_free(out);
+    return rc;
+}
+
 int scene_load(const char *path, const scene_options *options, scene *out, lp_error *err)
 {
     memset(out, 0, sizeof *out);
     out->default_scene = -1;
     char msg[sizeof err->msg];
     int rc = gltf_load(path, options ? &options->load : NULL, &out->doc, msg, sizeof msg);
-    if (rc) return lp_fail(err, rc, "%s", msg);
-    rc = load_nodes(out, err);
-    if (!rc) rc = mark_scene(out, err);
-    if (!rc) rc = load_meshes(out, err);
-    if (rc) scene_free(out);
-    return rc;
+    return scene_build(out, rc, msg, err);
+}
+
+int scene_load_memory(const void *bytes, size_t size, const char *path, const scene_options *options, scene *out,
+                      lp_error *err)
+{
+    memset(out, 0, sizeof *out);
+    out->default_scene = -1;
+    char msg[sizeof err->msg];
+    int rc = gltf_load_memory(bytes, size, path, options ? &options->load : NULL, &out->doc, msg, sizeof msg);
+    return scene_build(out, rc, msg, err);
 }
 
 void scene_free(scene *s)

@@ -88,6 +88,10 @@ typedef struct scene_options {
 } scene_options;
 
 int scene_load(const char *path, const scene_options *options, scene *out, lp_error *err);
+/* The same for a file in memory; `path` stands for its name (extension and
+ * folder for external uris), see gltf_load_memory. */
+int scene_load_memory(const void *bytes, size_t size, const char *path, const scene_options *options, scene *out,
+                      lp_error *err);
 void scene_free(scene *s);
 
 /* Largest axis scale of a column-major 4x4 transform (length of the longest

@@ -609,6 +609,21 @@ static void count_dangling(weld_work *k, weld_result *out)
     }
 }
 
+/* A dangling dropped triangle is a segment that may lie off the welded
+ * surface, where no level of it can be certified to stay within eps (the
+ * certificate covers kept triangles only). Until levels can carry such
+ * segments along, the whole mesh is locked: every level equals the original
+ * and none is written, so the promise holds. */
+static void lock_if_dangling(weld_result *out)
+{
+    if (!out->stats.degenerate_dangling) return;
+    memset(out->stats.vertices_by_kind, 0, sizeof out->stats.vertices_by_kind);
+    memset(out->stats.wedges_by_kind, 0, sizeof out->stats.wedges_by_kind);
+    for (uint32_t v = 0; v < out->vertex_count; ++v) out->vertex_kind[v] = WELD_LOCKED;
+    out->stats.vertices_by_kind[WELD_LOCKED] = out->vertex_count;
+    out->stats.wedges_by_kind[WELD_LOCKED] = out->wedge_count;
+}
+
 /* ---- public ----------------------------------------------------------------- */
 
 int weld_build(const scene_mesh *mesh, weld_result *out, lp_error *err)
@@ -632,6 +647,7 @@ int weld_build(const scene_mesh *mesh, weld_result *out, lp_error *err)
         mark_seams(out);
         classify_vertices(out);
         count_dangling(&k, out);
+        lock_if_dangling(out);
     }
     work_free(&k);
     if (rc) weld_free(out);

@@ -21,7 +21,11 @@
  * - triangles: 3 wedges + 3 position vertices each + the primitive they came
  *   from (whose material they have). Triangles that are degenerate BY INDEX
  *   after welding (two corners on one position vertex) are dropped and
- *   counted; zero-area triangles with three distinct positions are kept;
+ *   counted; zero-area triangles with three distinct positions are kept.
+ *   A dropped triangle whose segment (or point) is not an edge (vertex) of a
+ *   kept triangle is "dangling": it may lie off the welded surface, where the
+ *   certificate cannot follow it, so a mesh with one has EVERY vertex LOCKED
+ *   (its levels equal the original: no LOD is written for it);
  * - adjacency: for each position vertex the triangles around it (CSR), and
  *   for each triangle edge the opposite edge, or a border / non-manifold
  *   marker, plus a seam flag;

@@ -82,11 +82,14 @@ export const RUN_TIMEOUT_MS = Number(process.env.LODPIPE_TIMEOUT_MS || 120000);
 
 /**
  * Run lodpipe with the given arguments. Never throws for a non-zero exit.
+ * `prefix`: a command that runs lodpipe (e.g. ['setpriv', '--reuid=65534', ...] or a shell that sets a limit
+ * first), lodpipe and its arguments appended. `bin`: another lodpipe binary (e.g. the optimized build).
  * Returns { status, signal, stdout, stderr, error, ms, cmd }.
  */
-export function runLodpipe(args, { cwd = repoRoot, timeout = RUN_TIMEOUT_MS, env } = {}) {
+export function runLodpipe(args, { cwd = repoRoot, timeout = RUN_TIMEOUT_MS, env, prefix = [], bin = lodpipeBin } = {}) {
   const t0 = Date.now();
-  const r = spawnSync(lodpipeBin, args, {
+  const argv = [...prefix, bin, ...args];
+  const r = spawnSync(argv[0], argv.slice(1), {
     cwd,
     timeout,
     encoding: 'utf8',
@@ -100,7 +103,7 @@ export function runLodpipe(args, { cwd = repoRoot, timeout = RUN_TIMEOUT_MS, env
     stderr: r.stderr ?? '',
     error: r.error ? String(r.error) : null,
     ms: Date.now() - t0,
-    cmd: [lodpipeBin, ...args].map((a) => (/\s/.test(a) ? JSON.stringify(a) : a)).join(' '),
+    cmd: argv.map((a) => (/\s/.test(a) ? JSON.stringify(a) : a)).join(' '),
   };
 }
 

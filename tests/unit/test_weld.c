@@ -842,6 +842,9 @@ static void test_degenerate(void)
         CHECK(w.positions[0] == 0 && w.positions[3] == 1, "first kept triangle numbers first");
         CHECK(w.triangle_primitive[2] == 1, "the collinear triangle is kept, primitive 1");
         for (uint32_t i = 0; i < w.wedge_count; ++i) CHECK(w.wedge_index[i] != 4, "no wedge for vertex 4");
+        /* a dangling segment may lie off the surface: the whole mesh is locked (no levels) */
+        for (uint32_t v = 0; v < w.vertex_count; ++v) CHECK(w.vertex_kind[v] == WELD_LOCKED, "vertex %u locked", v);
+        CHECK(w.stats.vertices_by_kind[WELD_LOCKED] == w.vertex_count, "kind statistics follow the lock");
     }
     weld_free(&w);
     free(b);

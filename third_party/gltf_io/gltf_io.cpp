@@ -41,6 +41,13 @@ using ojson = nlohmann::ordered_json;
 namespace {
 
 const uint64_t kDefaultMaxFileBytes = 2ull << 30; // 2 GiB
+// JSON arrays/objects nested deeper than this are refused before parsing: nlohmann
+// copies (and tinygltf walks) values recursively, and ~20,000 levels overflow the
+// stack. glTF itself nests about 8 levels; extras get the rest.
+const size_t kMaxJsonDepth = 512;
+// Largest decoded / compressed size ratio accepted from EXT_meshopt_compression (the
+// codecs of libmeshoptimizer 0.18 stay below 64; room left for later versions).
+const uint64_t kMeshoptMaxExpansion = 4096;
 const char *kDraco = "KHR_draco_mesh_compression";
 const char *kMeshopt = "EXT_meshopt_compression";
 
@@ -634,6 +641,12 @@ void decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view)
     const std::vector<uint8_t> &src = doc->model.buffers[u64(m, "buffer", 0)].data;
     const uint8_t *in = src.data() + u64(m, "byteOffset", 0);
     size_t in_len = size_t(u64(m, "byteLength", 0));
+    // The decoded size is only declared; the stream bounds it (the vertex codec needs at
+    // least 2 header bits per 16 bytes, the index codecs a byte per triangle or index), so a
+    // declaration far beyond that is refused before the output is allocated.
+    if (length > kMeshoptMaxExpansion * uint64_t(in_len) + 4096)
+        fail(GLTF_INVALID, path + ": meshopt declares " + std::to_string(length) + " decoded bytes from " +
+                               std::to_string(in_len) + " compressed bytes (no stream expands that much)");
     ViewBytes &out = doc->views[v];
     out.owned.assign(size_t(length), 0);
     int rc = -1;
@@ -902,12 +915,32 @@ void list_external_files(gltf_doc *doc)
         if (i.contains("uri") && !i.contains("bufferView")) add(i["uri"].get<std::string>());
 }
 
-void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
+
+// True when the JSON text nests arrays/objects deeper than `limit` (strings skipped).
+bool json_too_deep(const std::string &text, size_t limit)
 {
-    const uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
-    std::vector<uint8_t> file;
-    std::string why;
-    if (!read_file(path, cap, &file, &why)) fail(errno == ENOENT || why.compare(0, 11, "cannot read") == 0 ? GLTF_IO : GLTF_INVALID, why);
+    size_t depth = 0;
+    bool in_string = false;
+    for (size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (in_string) {
+            if (c == '\\') ++i;
+            else if (c == '"') in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > limit) return true;
+        } else if ((c == ']' || c == '}') && depth) {
+            --depth;
+        }
+    }
+    return false;
+}
+
+// Parses the bytes of a file that was read from (or stands for) `path`; the
+// path names the folder external uris are resolved against.
+void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_t> &file, const gltf_load_options &opt)
+{
     if (file.empty()) fail(GLTF_INVALID, "file is empty");
     doc->path = path;
     doc->dir = dir_of(path);
@@ -920,6 +953,8 @@ void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
     if (glb) parse_glb(file, &text, &bin, &bin_size);
     else text.assign(file.begin(), file.end());
 
+    if (json_too_deep(text, kMaxJsonDepth))
+        fail(GLTF_INVALID, "JSON nests arrays and objects deeper than " + std::to_string(kMaxJsonDepth) + " levels");
     try {
         doc->json = ojson::parse(text);
     } catch (const ojson::parse_error &e) {
@@ -944,19 +979,23 @@ void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
     list_external_files(doc);
 }
 
-} // namespace
+void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
+{
+    const uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
+    std::vector<uint8_t> file;
+    std::string why;
+    if (!read_file(path, cap, &file, &why)) fail(errno == ENOENT || why.compare(0, 11, "cannot read") == 0 ? GLTF_IO : GLTF_INVALID, why);
+    load_bytes(doc, path, file, opt);
+}
 
-// ---- C API: loading and reading ----------------------------------------------------
-
-extern "C" int gltf_load(const char *path, const gltf_load_options *options, gltf_doc **out, char *err, size_t errlen)
+// Runs one of the loaders above, turning every failure into a status and a message.
+template <typename F> int guarded_load(F &&run, gltf_doc **out, char *err, size_t errlen)
 {
     *out = nullptr;
-    gltf_load_options opt{};
-    if (options) opt = *options;
     gltf_doc *doc = nullptr;
     try {
         doc = new gltf_doc;
-        load(doc, path, opt);
+        run(doc);
         *out = doc;
         return GLTF_OK;
     } catch (const Failure &f) {
@@ -972,6 +1011,32 @@ extern "C" int gltf_load(const char *path, const gltf_load_options *options, glt
         delete doc;
         return GLTF_INVALID;
     }
+}
+
+} // namespace
+
+// ---- C API: loading and reading ----------------------------------------------------
+
+extern "C" int gltf_load(const char *path, const gltf_load_options *options, gltf_doc **out, char *err, size_t errlen)
+{
+    gltf_load_options opt{};
+    if (options) opt = *options;
+    return guarded_load([&](gltf_doc *doc) { load(doc, path, opt); }, out, err, errlen);
+}
+
+extern "C" int gltf_load_memory(const void *bytes, size_t size, const char *path, const gltf_load_options *options,
+                                gltf_doc **out, char *err, size_t errlen)
+{
+    gltf_load_options opt{};
+    if (options) opt = *options;
+    return guarded_load(
+        [&](gltf_doc *doc) {
+            const uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
+            if (size > cap) fail(GLTF_INVALID, "is larger than the " + std::to_string(cap) + "-byte limit");
+            const uint8_t *b = static_cast<const uint8_t *>(bytes);
+            load_bytes(doc, path, std::vector<uint8_t>(b, b + size), opt);
+        },
+        out, err, errlen);
 }
 
 extern "C" void gltf_free(gltf_doc *doc) { delete doc; }

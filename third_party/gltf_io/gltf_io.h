@@ -46,6 +46,11 @@ typedef struct gltf_load_options {
  * one-line reason in err (without the file name; the caller adds it). */
 int gltf_load(const char *path, const gltf_load_options *options, gltf_doc **out,
               char *err, size_t errlen);
+/* The same for a file already in memory (size bytes, copied): `path` stands for
+ * where it came from; only its extension and folder are used (external uris are
+ * resolved against that folder, under the same rules). For the fuzz harnesses. */
+int gltf_load_memory(const void *bytes, size_t size, const char *path, const gltf_load_options *options,
+                     gltf_doc **out, char *err, size_t errlen);
 void gltf_free(gltf_doc *doc);
 
 /* The files the load read besides `path` itself: every buffer and image named

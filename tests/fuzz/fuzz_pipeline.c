@@ -1,0 +1,138 @@
+/* fuzz_pipeline.c - libFuzzer harness for the whole main job on small inputs:
+ * scene_load_memory -> per mesh of the default scene: weld -> certified
+ * simplify ladder -> lodchain_write -> gltf_serialize (in memory), the same
+ * calls `lodpipe IN -o OUT` makes, on one thread.
+ *
+ * Inputs whose default scene has more than FUZZ_MAX_TRIANGLES triangles are
+ * skipped so that one run stays short. Besides crashes, sanitizer reports and
+ * leaks, it aborts when a promise is broken by a level it writes:
+ * - its certified bound exceeds its eps, or is not a number, or is not the
+ *   recorded error;
+ * - the level's sampled two-sided distance to the original (a lower bound of
+ *   the true distance, the measure `lodpipe check` uses, coarser) exceeds the
+ *   certified bound. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "config.h"
+#include "fuzz_common.h"
+#include "lodchain.h"
+#include "measure.h"
+#include "simplify.h"
+#include "weld.h"
+
+#define FUZZ_MAX_TRIANGLES 2000u
+#define FUZZ_SAMPLES_PER_DIAGONAL 20.0
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+static uint64_t scene_triangles(const scene *s)
+{
+    uint64_t total = 0;
+    for (uint32_t m = 0; m < s->mesh_count; ++m)
+        if (s->meshes[m].instance_count) total += s->meshes[m].triangle_count;
+    return total;
+}
+
+static void broken(const char *what, uint32_t mesh, uint32_t level, double a, double b)
+{
+    fprintf(stderr, "fuzz_pipeline: mesh %u level %u: %s (%.17g vs %.17g)\n", mesh, level, what, a, b);
+    abort();
+}
+
+/* Every written level's bound against its eps and against an independent
+ * sampled measure of the level against the mesh's original triangles (the
+ * scene model keeps the original vertex order, which weld and the levels
+ * refer to, after lodchain_write reordered the document). */
+static void check_levels(const scene *s, uint32_t m, const weld_result *w, const simplify_result *r,
+                         const lodchain_summary *sum)
+{
+    float *p0 = NULL, *p1 = NULL;
+    uint32_t *t0 = NULL, *t1 = NULL;
+    measure_mesh original, level;
+    lp_error err = {0, ""};
+    const double diagonal = s->meshes[m].diagonal;
+    if (lodchain_mesh_triangles(s, m, NULL, NULL, -1, &p0, &t0, &original, &err) == LP_OK)
+        for (uint32_t k = 0; k < sum->level_count; ++k) {
+            const uint32_t ladder = sum->levels[k].ladder_level;
+            if (ladder < 1 || ladder > r->level_count) broken("written level is not in the ladder", m, k + 1, ladder, 0);
+            const simplify_level *l = &r->levels[ladder - 1];
+            if (!(l->bound <= l->eps)) broken("certified bound above eps", m, ladder, l->bound, l->eps);
+            if (sum->levels[k].error != l->bound) broken("recorded error is not the bound", m, ladder, sum->levels[k].error, l->bound);
+            free(p1);
+            free(t1);
+            p1 = NULL;
+            t1 = NULL;
+            if (!isfinite(diagonal) || !(diagonal > 0)) continue;
+            if (lodchain_mesh_triangles(s, m, w, l, -1, &p1, &t1, &level, &err) != LP_OK) break;
+            double measured = measure_two_sided(&original, &level, diagonal / FUZZ_SAMPLES_PER_DIAGONAL);
+            if (measured > l->bound * (1 + 1e-9) + 1e-12 * diagonal)
+                broken("sampled distance above the certified bound", m, ladder, measured, l->bound);
+        }
+    free(p0);
+    free(t0);
+    free(p1);
+    free(t1);
+}
+
+/* One mesh through weld -> simplify -> lodchain_write, as the CLI does. */
+static int run_mesh(scene *s, uint32_t m, const simplify_options *opt, const lodchain_options *chain)
+{
+    const scene_mesh *mesh = &s->meshes[m];
+    lp_error err = {0, ""};
+    weld_result w;
+    if (weld_build(mesh, &w, &err) != LP_OK) return 1;
+    int64_t *materials = malloc(((size_t)mesh->primitive_count + 1) * sizeof *materials);
+    if (!materials) abort();
+    for (uint32_t p = 0; p < mesh->primitive_count; ++p) materials[p] = mesh->primitives[p].material;
+    simplify_result r;
+    memset(&r, 0, sizeof r);
+    int rc = simplify_mesh(&w, materials, opt, &r, &err);
+    free(materials);
+    if (rc == LP_OK) {
+        lodchain_summary sum;
+        memset(&sum, 0, sizeof sum);
+        rc = lodchain_write(s, m, &w, &r, chain, &sum, &err);
+        if (rc == LP_OK) check_levels(s, m, &w, &r, &sum);
+        lodchain_summary_free(&sum);
+    }
+    simplify_result_free(&r);
+    weld_free(&w);
+    return rc;
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    scene s;
+    if (fuzz_load(data, size, &s) != LP_OK) return 0;
+    if (scene_triangles(&s) > FUZZ_MAX_TRIANGLES) {
+        scene_free(&s);
+        return 0;
+    }
+    /* The defaults of pipeline.toml, on one thread. */
+    lp_config config;
+    config_defaults(&config);
+    double fractions[SIMPLIFY_MAX_LEVELS];
+    uint32_t levels = 0;
+    for (; levels < config.lod.level_count && levels < SIMPLIFY_MAX_LEVELS; ++levels)
+        fractions[levels] = config.lod.levels[levels] / 100.0;
+    const simplify_options opt = {fractions, levels, 1, config.lod.flip_cos, 0};
+    const lodchain_options chain = {{config.switching.pixel_error, config.switching.viewport_height,
+                                     config.switching.fov_y},
+                                    config.lod.min_reduction};
+    int rc = LP_OK;
+    for (uint32_t m = 0; m < s.mesh_count && rc == LP_OK; ++m)
+        if (s.meshes[m].instance_count && s.meshes[m].triangle_count) rc = run_mesh(&s, m, &opt, &chain);
+    if (rc == LP_OK) {
+        gltf_out_file *files = NULL;
+        size_t count = 0;
+        char msg[512];
+        if (gltf_serialize(s.doc, FUZZ_FOLDER "output.glb", &files, &count, msg, sizeof msg) == GLTF_OK) {
+            gltf_free_files(files, count);
+            free(files);
+        }
+    }
+    scene_free(&s);
+    return 0;
+}

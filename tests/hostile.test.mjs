@@ -1,0 +1,401 @@
+// Issue 6 "must show" 2 (hostile input and safe writes), with the binary under test (make test: the
+// ASan+UBSan build, LeakSanitizer on):
+// 1. Degenerate geometry (tests/tools/make_degenerate.py): zero-area and duplicate triangles, unreferenced
+//    vertices, NaN/Inf in non-position attributes, one-triangle meshes, empty primitives, a zero bbox
+//    diagonal, collinear meshes, tiny and huge scales, strip restarts. The main job exits 0 with the
+//    case's warning, no new validator error, and the chain passes `lodpipe check` and every aspect of
+//    tests/lib/lodcheck.mjs analyzeChain (CGAL-proven Hausdorff bound included).
+// 2. The regression corpus tests/regressions/ (inputs that once broke lodpipe, each listed in its
+//    manifest.json with the exit code expected now): the main job, `check` on its output, and each fuzz
+//    harness (build/fuzz/fuzz_*, when built) on the file.
+// 3. Limits: a node chain deeper than the cap, a node cycle, uris that leave the input's folder (refused,
+//    accepted with --allow-external-uris), JSON nested absurdly deep, declared counts and lengths far beyond
+//    the file: a one-line error and exit 2, quickly (nothing is allocated from a declared size).
+// 4. Safe writes: overwrite refusal (exit 1, input unchanged; --force writes), a missing output folder, a
+//    read-only folder (as root, where permissions do not stop writes: lodpipe runs as user nobody through
+//    setpriv; plus a folder of /proc, where nobody can create a file) and a full disk (ulimit -f, and a
+//    16 KiB tmpfs when this machine lets us mount one): exit 4, one line, no partial or temp file, an
+//    existing output left as it was.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import path from 'node:path';
+import { spawnSync } from 'node:child_process';
+import {
+  corpusPath, describeRun, listFilesRecursive, oneLineErrorProblems, parseGlb, repoRoot, runHealthProblems, runLodpipe,
+  skipWithoutBinary, successStderrProblems, tempDir,
+} from './lib/gltf.mjs';
+import { BUILD, CHAIN_ASPECTS, analyzeChain, formatProblems, hausdorffAvailable } from './lib/lodcheck.mjs';
+import { pack, writeGlb } from './lib/lodfixture.mjs';
+
+const skip = skipWithoutBinary();
+const REGRESSIONS = path.join(repoRoot, 'tests', 'regressions');
+const DUCK = corpusPath('scenes/Duck.glb');
+const isRoot = typeof process.getuid === 'function' && process.getuid() === 0;
+
+/** A main-job run that must succeed: exit 0, only warnings on stderr, the output exists. */
+function mainJobProblems(r, out) {
+  const p = [...runHealthProblems(r), ...successStderrProblems(r.stderr)];
+  if (r.status !== 0) p.push(`exit status ${r.status} (expected 0)`);
+  else if (!fs.existsSync(out)) p.push('exit 0 but no output file');
+  return p;
+}
+
+/** `lodpipe check` on an output: exit 0 and no row marked NO. */
+function checkProblems(out) {
+  const r = runLodpipe(['check', out, '--quiet']);
+  const p = [...runHealthProblems(r)];
+  if (r.status !== 0) p.push(`check: exit status ${r.status}: ${r.stderr.trim()}`);
+  if (/\bNO\b/.test(r.stdout)) p.push(`check marks a level: ${r.stdout}`);
+  return p;
+}
+
+/** An error run: the expected exit code, one line naming `name`, nothing left in `dir` beyond `keep`. */
+function refusalProblems(r, code, name, dir, keep = []) {
+  const p = [...runHealthProblems(r), ...oneLineErrorProblems(r.stderr)];
+  if (r.status !== code) p.push(`exit status ${r.status} (expected ${code})`);
+  if (name && !r.stderr.includes(name)) p.push(`stderr does not name ${name}`);
+  if (dir) {
+    const left = listFilesRecursive(dir).filter((f) => !keep.includes(f));
+    if (left.length) p.push(`files left behind: ${JSON.stringify(left)}`);
+  }
+  return p;
+}
+
+// ---------------------------------------------------------------------------------------------
+// 1. Degenerate geometry
+
+test('degenerate geometry: handled with a warning, the bound still holds', { skip }, async (t) => {
+  const dir = tempDir(t);
+  const gen = spawnSync('python3', [path.join(repoRoot, 'tests', 'tools', 'make_degenerate.py'), dir], { encoding: 'utf8' });
+  assert.equal(gen.status, 0, gen.stderr);
+  const cases = JSON.parse(fs.readFileSync(path.join(dir, 'cases.json'), 'utf8'));
+  assert.ok(Object.keys(cases).length >= 10, 'the generator writes every case');
+  for (const [file, c] of Object.entries(cases)) {
+    await t.test(`${file}: ${c.what}`, async (st) => {
+      const input = path.join(dir, file);
+      const out = path.join(tempDir(st), 'out.glb');
+      const r = runLodpipe([input, '-o', out, '--json']);
+      assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
+      if (c.warning) assert.ok(r.stderr.includes('warning') && r.stderr.includes(c.warning), `expected a warning containing "${c.warning}": ${describeRun(r)}`);
+      assert.deepEqual(checkProblems(out), []);
+      const res = await analyzeChain({ inFile: input, outFile: out, summary: JSON.parse(r.stdout), hausdorff: hausdorffAvailable() });
+      for (const n of res.notes || []) st.diagnostic(n);
+      const tolerated = c.tolerate ? new RegExp(c.tolerate) : null;
+      const bad = CHAIN_ASPECTS.map(([k, title]) => {
+        const kept = res.problems[k].filter((m) => !(tolerated && tolerated.test(m)));
+        if (kept.length < res.problems[k].length) st.diagnostic(`tolerated (${c.tolerate_why}): ${res.problems[k].length - kept.length} line(s) of "${title}"`);
+        return kept.length ? formatProblems(title, kept) : null;
+      }).filter(Boolean);
+      assert.deepEqual(bad, []);
+    });
+  }
+});
+
+// ---------------------------------------------------------------------------------------------
+// 2. The regression corpus
+
+const regressionManifest = JSON.parse(fs.readFileSync(path.join(REGRESSIONS, 'manifest.json'), 'utf8'));
+
+test('tests/regressions: every file is listed in its manifest with an expectation', () => {
+  const files = fs.readdirSync(REGRESSIONS).filter((f) => f !== 'manifest.json').sort();
+  assert.deepEqual(files, Object.keys(regressionManifest).sort());
+  for (const [f, e] of Object.entries(regressionManifest))
+    assert.ok(Array.isArray(e.exit) && e.exit.length && e.what && e.found_by, `${f}: needs exit, what, found_by`);
+});
+
+for (const [file, e] of Object.entries(regressionManifest)) {
+  test(`regression ${file}: ${e.what.slice(0, 80)}`, { skip }, async (t) => {
+    const input = path.join(REGRESSIONS, file);
+    await t.test(`main job: exit ${e.exit.join('/')}`, (st) => {
+      const dir = tempDir(st);
+      const out = path.join(dir, 'out.glb');
+      const r = runLodpipe([input, '-o', out]);
+      const p = [...runHealthProblems(r)];
+      if (!e.exit.includes(r.status)) p.push(`exit status ${r.status} (expected ${e.exit.join(' or ')})`);
+      if (r.status === 0) {
+        p.push(...successStderrProblems(r.stderr), ...checkProblems(out));
+        if (e.warning && !r.stderr.includes(e.warning)) p.push(`no warning containing "${e.warning}"`);
+      } else {
+        p.push(...oneLineErrorProblems(r.stderr));
+        if (listFilesRecursive(dir).length) p.push('files left behind');
+      }
+      assert.deepEqual(p, [], describeRun(r));
+    });
+    for (const harness of ['load', 'pipeline']) {
+      const bin = path.join(BUILD, 'fuzz', `fuzz_${harness}`);
+      const why = fs.existsSync(bin) ? false : `${bin} not built (make fuzz-build)`;
+      await t.test(`fuzz_${harness} runs it cleanly`, { skip: why }, () => {
+        const r = spawnSync(bin, [input], { encoding: 'utf8', timeout: 120000 });
+        assert.equal(r.status, 0, `${bin} ${input}: status ${r.status} signal ${r.signal}\n${(r.stderr || '').slice(-3000)}`);
+      });
+    }
+  });
+}
+
+// ---------------------------------------------------------------------------------------------
+// 3. Limits
+
+/** A one-triangle scene: { json, bin } to mutate. */
+function triangleModel() {
+  const positions = new Float32Array([0, 0, 0, 1, 0, 0, 0, 1, 0]);
+  const indices = new Uint16Array([0, 1, 2, 0]);
+  return pack({
+    json: {
+      asset: { version: '2.0' }, scene: 0, scenes: [{ nodes: [0] }], nodes: [{ mesh: 0 }],
+      meshes: [{ primitives: [{ attributes: { POSITION: 0 }, indices: 1 }] }],
+      accessors: [{ componentType: 5126, type: 'VEC3', min: [0, 0, 0], max: [1, 1, 0] }, { componentType: 5123, type: 'SCALAR' }],
+    },
+    datas: [positions, indices.subarray(0, 3)],
+  });
+}
+
+/** The model as a .gltf whose buffer sits in `binUri` (written at binPath). */
+function writeGltfWithExternalBuffer(file, binUri, binPath) {
+  const m = triangleModel();
+  fs.mkdirSync(path.dirname(binPath), { recursive: true });
+  fs.mkdirSync(path.dirname(file), { recursive: true });
+  fs.writeFileSync(binPath, m.bin);
+  m.json.buffers[0].uri = binUri;
+  fs.writeFileSync(file, JSON.stringify(m.json));
+}
+
+const LIMIT_TIMEOUT_MS = 30000; // a refusal must not first allocate or walk what the file declares
+
+function assertRefused(st, input, code, needle) {
+  const dir = tempDir(st);
+  const r = runLodpipe(['convert', input, path.join(dir, 'out.glb')], { timeout: LIMIT_TIMEOUT_MS });
+  const p = refusalProblems(r, code, path.basename(input), dir);
+  if (needle && !needle.test(r.stderr)) p.push(`stderr does not match ${needle}`);
+  assert.deepEqual(p, [], describeRun(r));
+}
+
+test('limits: refused before allocation, with a one-line error', { skip }, async (t) => {
+  const dir = tempDir(t);
+
+  await t.test('a node chain 5000 deep (cap 4096) -> exit 2', (st) => {
+    const m = triangleModel();
+    m.json.nodes = Array.from({ length: 5000 }, (_, i) => (i < 4999 ? { children: [i + 1] } : { mesh: 0 }));
+    const f = path.join(dir, 'deep_nodes.glb');
+    writeGlb(f, m.json, m.bin);
+    assertRefused(st, f, 2, /deeper than/);
+  });
+
+  await t.test('a node cycle 0 -> 1 -> 2 -> 0 -> exit 2', (st) => {
+    const m = triangleModel();
+    m.json.nodes = [{ children: [1], mesh: 0 }, { children: [2] }, { children: [0] }];
+    m.json.scenes = [{ nodes: [] }];
+    const f = path.join(dir, 'cycle.glb');
+    writeGlb(f, m.json, m.bin);
+    assertRefused(st, f, 2, /cycle|parent/);
+  });
+
+  await t.test('a buffer uri "../x.bin" -> exit 2; accepted with --allow-external-uris', (st) => {
+    const sub = path.join(dir, 'escape', 'inner');
+    const f = path.join(sub, 'escape.gltf');
+    writeGltfWithExternalBuffer(f, '../outside.bin', path.join(dir, 'escape', 'outside.bin'));
+    assertRefused(st, f, 2, /outside the input's folder/);
+    const out = path.join(tempDir(st), 'out.glb');
+    const r = runLodpipe(['convert', '--allow-external-uris', f, out]);
+    assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
+  });
+
+  await t.test('an absolute buffer uri and a percent-encoded "..": exit 2', (st) => {
+    const abs = path.join(dir, 'absolute.gltf');
+    writeGltfWithExternalBuffer(abs, path.join(dir, 'abs.bin'), path.join(dir, 'abs.bin'));
+    assertRefused(st, abs, 2, /outside the input's folder/);
+    const sub = path.join(dir, 'enc', 'inner');
+    const enc = path.join(sub, 'encoded.gltf');
+    writeGltfWithExternalBuffer(enc, '%2E%2E/enc.bin', path.join(dir, 'enc', 'enc.bin'));
+    assertRefused(st, enc, 2, /outside the input's folder/);
+  });
+
+  await t.test('an image uri "../t.png" -> exit 2', (st) => {
+    const m = triangleModel();
+    m.json.buffers[0].uri = `data:application/octet-stream;base64,${m.bin.toString('base64')}`;
+    m.json.images = [{ uri: '../t.png' }];
+    fs.mkdirSync(path.join(dir, 'img'), { recursive: true });
+    fs.writeFileSync(path.join(dir, 't.png'), Buffer.from([0x89, 0x50, 0x4e, 0x47]));
+    const f = path.join(dir, 'img', 'image_escape.gltf');
+    fs.writeFileSync(f, JSON.stringify(m.json));
+    assertRefused(st, f, 2, /outside the input's folder/);
+  });
+
+  await t.test('JSON nested 100,000 deep in extras -> exit 2; 400 deep is kept', (st) => {
+    const deep = (d) => `{"asset":{"version":"2.0"},"extras":${'['.repeat(d)}${']'.repeat(d)}}`;
+    const f = path.join(dir, 'deep_json.gltf');
+    fs.writeFileSync(f, deep(100000));
+    assertRefused(st, f, 2, /deeper than/);
+    const ok = path.join(dir, 'nested_json.gltf');
+    fs.writeFileSync(ok, deep(400));
+    const out = path.join(tempDir(st), 'out.gltf');
+    const r = runLodpipe(['convert', ok, out]);
+    assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
+  });
+
+  await t.test('an accessor declaring 2^40 elements on a 48-byte buffer -> exit 2', (st) => {
+    const m = triangleModel();
+    m.json.accessors[0].count = 2 ** 40;
+    const f = path.join(dir, 'huge_count.glb');
+    writeGlb(f, m.json, m.bin);
+    assertRefused(st, f, 2, /accessors\[0\]/);
+  });
+
+  await t.test('a buffer declaring 2^50 bytes, a bufferView as long -> exit 2', (st) => {
+    const m = triangleModel();
+    m.json.buffers[0].byteLength = 2 ** 50;
+    m.json.bufferViews[0].byteLength = 2 ** 50 - 64;
+    const f = path.join(dir, 'huge_buffer.glb');
+    writeGlb(f, m.json, m.bin);
+    assertRefused(st, f, 2, null);
+  });
+
+  await t.test('a sparse accessor declaring 2^40 substitutions -> exit 2', (st) => {
+    const m = triangleModel();
+    m.json.accessors[0].sparse = { count: 2 ** 40, indices: { bufferView: 1, componentType: 5123 }, values: { bufferView: 0 } };
+    const f = path.join(dir, 'huge_sparse.glb');
+    writeGlb(f, m.json, m.bin);
+    assertRefused(st, f, 2, /accessors\[0\]/);
+  });
+
+  await t.test('a meshopt stream of 71 bytes declaring 64 GiB decoded -> exit 2 (nothing allocated)', (st) => {
+    const { json, bin } = parseGlb(fs.readFileSync(corpusPath('compressed/BoxMeshopt.glb')));
+    const view = json.bufferViews.find((v) => v.extensions?.EXT_meshopt_compression?.mode === 'ATTRIBUTES');
+    const m = view.extensions.EXT_meshopt_compression;
+    m.count = 2 ** 36 / m.byteStride;
+    view.byteLength = 2 ** 36;
+    json.buffers[view.buffer].byteLength = (view.byteOffset || 0) + view.byteLength;
+    const f = path.join(dir, 'meshopt_bomb.glb');
+    writeGlb(f, json, Buffer.from(bin));
+    assertRefused(st, f, 2, /meshopt declares/);
+  });
+
+  await t.test('a triangle strip of 2^31 indices declared on a tiny view -> exit 2', (st) => {
+    const m = triangleModel();
+    m.json.meshes[0].primitives[0].mode = 5;
+    m.json.accessors[1].count = 2 ** 31;
+    const f = path.join(dir, 'huge_strip.glb');
+    writeGlb(f, m.json, m.bin);
+    assertRefused(st, f, 2, /accessors\[1\]/);
+  });
+});
+
+// ---------------------------------------------------------------------------------------------
+// 4. Safe writes
+
+/** Runs as user nobody (setpriv), for permission tests when we are root; null when impossible. */
+function asNobodyPrefix() {
+  const probe = spawnSync('setpriv', ['--reuid=65534', '--regid=65534', '--clear-groups', 'true'], { encoding: 'utf8' });
+  return probe.status === 0 ? ['setpriv', '--reuid=65534', '--regid=65534', '--clear-groups'] : null;
+}
+
+/**
+ * A 16 KiB tmpfs mounted at dir in a private mount namespace, lodpipe run inside it, then what is left on
+ * the tmpfs listed into listFile (outside it); null when this machine does not let us mount.
+ */
+function smallTmpfsPrefix(dir, listFile) {
+  const script = 'mount -t tmpfs -o size=16k lodpipe-test "$0" || exit 99; "$@"; rc=$?; ls -A "$0" > "$LIST"; exit $rc';
+  const probe = spawnSync('unshare', ['-m', 'sh', '-c', script, dir, 'true'], { encoding: 'utf8', env: { ...process.env, LIST: listFile } });
+  return probe.status === 0 ? ['env', `LIST=${listFile}`, 'unshare', '-m', 'sh', '-c', script, dir] : null;
+}
+
+test('safe writes: refusal, missing and read-only folders, full disk', { skip }, async (t) => {
+  await t.test('the main job refuses to overwrite its input (exit 1, input unchanged); --force writes it', (st) => {
+    const dir = tempDir(st);
+    const copy = path.join(dir, 'duck.glb');
+    fs.copyFileSync(DUCK, copy);
+    const before = fs.readFileSync(copy);
+    const r = runLodpipe([copy, '-o', copy]);
+    const p = refusalProblems(r, 1, 'duck.glb', dir, ['duck.glb']);
+    if (!fs.readFileSync(copy).equals(before)) p.push('the input was changed');
+    assert.deepEqual(p, [], describeRun(r));
+    const link = path.join(dir, 'alias.glb');
+    fs.symlinkSync(copy, link);
+    const viaLink = runLodpipe([copy, '-o', link]);
+    assert.equal(viaLink.status, 1, `a symlink to the input is the input: ${describeRun(viaLink)}`);
+    const forced = runLodpipe([copy, '-o', copy, '--force']);
+    assert.deepEqual(mainJobProblems(forced, copy), [], describeRun(forced));
+    assert.ok(!fs.readFileSync(copy).equals(before), '--force rewrote the file');
+    assert.deepEqual(listFilesRecursive(dir).sort(), ['alias.glb', 'duck.glb']);
+  });
+
+  await t.test('a missing output folder -> exit 4, one line, nothing created', (st) => {
+    const dir = tempDir(st);
+    const r = runLodpipe([DUCK, '-o', path.join(dir, 'missing', 'out.glb')]);
+    assert.deepEqual(refusalProblems(r, 4, 'missing', dir), [], describeRun(r));
+  });
+
+  await t.test('an output "folder" that is a file -> exit 4', (st) => {
+    const dir = tempDir(st);
+    fs.writeFileSync(path.join(dir, 'plain'), 'x');
+    const r = runLodpipe([DUCK, '-o', path.join(dir, 'plain', 'out.glb')]);
+    assert.deepEqual(refusalProblems(r, 4, 'plain', dir, ['plain']), [], describeRun(r));
+  });
+
+  await t.test('a read-only folder -> exit 4, no file, an existing output untouched', (st) => {
+    let prefix = [];
+    if (isRoot) {
+      prefix = asNobodyPrefix();
+      if (!prefix) {
+        st.skip('running as root and setpriv cannot drop to nobody: permissions would not stop the write');
+        return;
+      }
+      st.diagnostic('running as root: lodpipe runs as user nobody (setpriv) so that the folder mode applies');
+    }
+    const dir = tempDir(st);
+    const input = path.join(dir, 'in.glb');
+    fs.copyFileSync(DUCK, input);
+    fs.chmodSync(input, 0o644);
+    const ro = path.join(dir, 'ro');
+    fs.mkdirSync(ro);
+    fs.writeFileSync(path.join(ro, 'out.glb'), 'old');
+    fs.chmodSync(ro, 0o555);
+    fs.chmodSync(dir, 0o755);
+    try {
+      for (const name of ['out.glb', 'new.gltf']) {
+        const r = runLodpipe([input, '-o', path.join(ro, name)], { prefix });
+        const p = refusalProblems(r, 4, name, ro, ['out.glb']);
+        if (fs.readFileSync(path.join(ro, 'out.glb'), 'utf8') !== 'old') p.push('the existing output was changed');
+        assert.deepEqual(p, [], describeRun(r));
+      }
+    } finally {
+      fs.chmodSync(ro, 0o755); // so the folder can be removed
+    }
+  });
+
+  await t.test('a folder where no file can be created (/proc/self, even for root) -> exit 4', () => {
+    const r = runLodpipe([DUCK, '-o', '/proc/self/lodpipe-out.glb']);
+    assert.deepEqual(refusalProblems(r, 4, '/proc/self', null), [], describeRun(r));
+  });
+
+  for (const kind of ['.glb', '.gltf']) {
+    await t.test(`a full disk (ulimit -f 64 KiB) writing ${kind} -> exit 4, no partial file, an existing output untouched`, (st) => {
+      const dir = tempDir(st);
+      const out = path.join(dir, `out${kind}`);
+      fs.writeFileSync(out, 'old');
+      const r = runLodpipe([DUCK, '-o', out], { prefix: ['bash', '-c', 'ulimit -f 64 && exec "$@"', 'bash'] });
+      const p = refusalProblems(r, 4, `out${kind}`, dir, [`out${kind}`]);
+      if (!/File too large|No space/.test(r.stderr)) p.push('stderr does not give the reason');
+      if (fs.readFileSync(out, 'utf8') !== 'old') p.push('the existing output was changed');
+      assert.deepEqual(p, [], describeRun(r));
+    });
+  }
+
+  await t.test('a full disk (16 KiB tmpfs) -> exit 4, nothing left on it', (st) => {
+    const dir = tempDir(st);
+    const listFile = path.join(tempDir(st), 'left.txt');
+    const prefix = smallTmpfsPrefix(dir, listFile);
+    if (!prefix) {
+      st.skip('cannot mount a tmpfs here (unshare -m / mount not permitted); the ulimit cases cover a full disk');
+      return;
+    }
+    fs.rmSync(listFile, { force: true });
+    const r = runLodpipe([DUCK, '-o', path.join(dir, 'out.glb')], { prefix });
+    const p = [...runHealthProblems(r), ...oneLineErrorProblems(r.stderr)];
+    if (r.status !== 4) p.push(`exit status ${r.status} (expected 4)`);
+    if (!/No space|File too large/.test(r.stderr)) p.push('stderr does not say the disk is full');
+    if (!fs.existsSync(listFile)) p.push('the tmpfs was not listed after the run');
+    else if (fs.readFileSync(listFile, 'utf8').trim()) p.push(`files left on the tmpfs: ${fs.readFileSync(listFile, 'utf8').trim()}`);
+    assert.deepEqual(p, [], describeRun(r));
+  });
+});
