@@ -117,7 +117,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     uint32_t levels = 0;
     for (; levels < config.lod.level_count && levels < SIMPLIFY_MAX_LEVELS; ++levels)
         fractions[levels] = config.lod.levels[levels] / 100.0;
-    const simplify_options opt = {fractions, levels, 1, config.lod.flip_cos, 0};
+    const simplify_options opt = {fractions, levels, 1, config.lod.flip_cos, 0, config.lod.strict_intersections};
     const lodchain_options chain = {{config.switching.pixel_error, config.switching.viewport_height,
                                      config.switching.fov_y},
                                     config.lod.min_reduction};
