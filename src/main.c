@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "config.h"
+#include "dracoout.h"
 #include "jsonw.h"
 #include "lodchain.h"
 #include "measure.h"
@@ -200,6 +201,30 @@ static int write_document(const gltf_doc *doc, const char *out)
     return rc;
 }
 
+static dracoout_options draco_options_of(const cli *c)
+{
+    dracoout_options o = {c->config.draco.position_bits, c->config.draco.normal_bits, c->config.draco.texcoord_bits,
+                          c->config.draco.color_bits,    c->config.draco.generic_bits, c->config.draco.speed,
+                          c->config.draco.fallback};
+    return o;
+}
+
+/* convert --draco: every mesh of the default scene Draco-compressed as it is. */
+static int draco_lod0_only(const cli *c, const char *in, scene *s)
+{
+    dracoout_options o = draco_options_of(c);
+    dracoout_stats stats = {0};
+    lp_error err = {0, ""};
+    int rc = LP_OK;
+    for (uint32_t m = 0; m < s->mesh_count && !rc; ++m) {
+        if (!s->meshes[m].instance_count || !s->meshes[m].triangle_count) continue;
+        dracoout_plan plan;
+        rc = dracoout_plan_mesh(s, m, NULL, NULL, 0, &o, o.position_bits, &plan, &err);
+        if (!rc) rc = dracoout_write_mesh(s, m, NULL, &o, &plan, &stats, &err);
+    }
+    return rc ? report(in, &err) : LP_OK;
+}
+
 static int cmd_convert(const cli *c)
 {
     const char *in = c->operands[0], *out = c->operands[1];
@@ -208,7 +233,8 @@ static int cmd_convert(const cli *c)
     scene s;
     int rc = load(c, in, &s);
     if (rc) return rc;
-    rc = write_document(s.doc, out);
+    if (c->config.draco.enabled) rc = draco_lod0_only(c, in, &s);
+    if (!rc) rc = write_document(s.doc, out);
     scene_free(&s);
     return rc;
 }
@@ -391,7 +417,10 @@ static int cmd_lod(const cli *c)
     simplify_options opt = simplify_options_of(c);
     lodchain_options chain = {{c->config.switching.pixel_error, c->config.switching.viewport_height,
                                c->config.switching.fov_y},
-                              c->config.lod.min_reduction};
+                              c->config.lod.min_reduction, 0, NULL};
+    const int draco = c->config.draco.enabled;
+    const dracoout_options draco_opt = draco_options_of(c);
+    dracoout_stats draco_stats = {0};
     jsonw j = {0};
     jsonw_raw(&j, "{\"input\":");
     jsonw_string(&j, in);
@@ -407,11 +436,28 @@ static int cmd_lod(const cli *c)
         simplify_result r;
         lodchain_summary sum;
         memset(&sum, 0, sizeof sum);
-        rc = weld_and_simplify(mesh, &opt, &w, &r, &err);
-        if (!rc) {
-            rc = lodchain_write(&s, m, &w, &r, &chain, &sum, &err);
-            weld_free(&w);
+        memset(&r, 0, sizeof r);
+        dracoout_plan plan;
+        /* Draco: each level is simplified to eps - the quantization budget
+         * (dracoout.h), and records eps itself afterwards */
+        int bits = draco_opt.position_bits;
+        double budget = 0, reserved[SIMPLIFY_MAX_LEVELS];
+        simplify_options mesh_opt = opt;
+        if (draco && mesh->diagonal > 0) {
+            rc = dracoout_budget(&s, m, &draco_opt, c->levels[0] * mesh->diagonal, &bits, &budget, &err);
+            for (uint32_t k = 0; k < opt.level_count; ++k) reserved[k] = c->levels[k] - budget / mesh->diagonal;
+            mesh_opt.fractions = reserved;
         }
+        if (!rc) rc = weld_and_simplify(mesh, &mesh_opt, &w, &r, &err);
+        const int welded = !rc;
+        for (uint32_t k = 0; welded && draco && k < r.level_count; ++k) r.levels[k].eps = c->levels[k] * r.diagonal;
+        if (!rc && draco) /* the quantization bound goes into the recorded errors */
+            rc = dracoout_plan_mesh(&s, m, &w, &r, chain.min_reduction, &draco_opt, bits, &plan, &err);
+        chain.added_error = draco ? plan.added_error : NULL;
+        chain.keep_vertex_order = draco;
+        if (!rc) rc = lodchain_write(&s, m, &w, &r, &chain, &sum, &err);
+        if (!rc && draco) rc = dracoout_write_mesh(&s, m, &sum, &draco_opt, &plan, &draco_stats, &err);
+        if (welded) weld_free(&w);
         if (rc) {
             lodchain_summary_free(&sum);
             simplify_result_free(&r);
@@ -430,7 +476,18 @@ static int cmd_lod(const cli *c)
         jsonw_string(&j, mesh->name);
         jsonw_printf(&j, ",\"triangles\":%llu,\"diagonal\":", (unsigned long long)mesh->triangle_count);
         jsonw_number(&j, r.diagonal);
-        jsonw_printf(&j, ",\"nodes\":%u,\"levels\":[", sum.nodes);
+        jsonw_printf(&j, ",\"nodes\":%u,", sum.nodes);
+        if (draco) {
+            jsonw_printf(&j, "\"draco\":{\"position_bits\":%d,\"raised\":%s,\"lod0_error\":", plan.position_bits,
+                         plan.position_bits > plan.configured_bits ? "true" : "false");
+            jsonw_number(&j, plan.added_error[0]);
+            jsonw_raw(&j, "},");
+            if (!c->quiet && plan.position_bits > plan.configured_bits)
+                fprintf(stderr, "lodpipe: %s: mesh %u \"%s\": Draco position bits raised from %d to %d so that every "
+                                "level's error plus quantization stays within its eps\n",
+                        in, m, mesh->name, plan.configured_bits, plan.position_bits);
+        }
+        jsonw_raw(&j, "\"levels\":[");
         for (uint32_t k = 0; k < sum.level_count; ++k) {
             const lodchain_level *l = &sum.levels[k];
             jsonw_printf(&j, "%s{\"level\":%u,\"mesh\":%lld,\"triangles\":%u,\"eps\":", k ? "," : "", k + 1,
@@ -500,6 +557,13 @@ static int cmd_check(const cli *c)
             bvh_build(&a_tree, a.positions, a.vertex_count, a.triangles, a.triangle_count) != BVH_OK)
             rc = LP_INVALID;
         const double spacing = base->diagonal / 400.0;
+        /* LOD0's own recorded error (Draco: its quantization, else 0): the
+         * errors are against the original surface, so a level and the file's
+         * LOD0 are within the sum of both (triangle inequality) */
+        double lod0_error = 0;
+        char lod0_pointer[128];
+        snprintf(lod0_pointer, sizeof lod0_pointer, "/nodes/%u/extras/lodpipe/levels/0/error", n);
+        if (recorded_number(s.doc, lod0_pointer, &lod0_error) != 0 || !(lod0_error >= 0)) lod0_error = 0;
         for (uint32_t k = 0; k < node->lod_count && !rc; ++k) {
             const scene_node *lod = &s.nodes[node->lod_ids[k]];
             char pointer[128];
@@ -519,7 +583,8 @@ static int cmd_check(const cli *c)
                 break;
             }
             double measured = measure_two_sided_with(&a, &a_tree, &b, spacing);
-            int ok = have && measured >= 0 && measured <= recorded * (1 + 1e-9) + 1e-12 * base->diagonal;
+            const double allowed = recorded + lod0_error;
+            int ok = have && measured >= 0 && measured <= allowed * (1 + 1e-9) + 1e-12 * base->diagonal;
             if (have && !ok) failed = 1;
             char rec[32] = "-";
             if (have) snprintf(rec, sizeof rec, "%.8g", recorded);
@@ -607,10 +672,6 @@ static int parse(int argc, char **argv, cli *c)
             fprintf(stderr, "lodpipe: %s\n", err.msg);
     free(config_args);
     if (rc) return rc;
-    if (c->config.draco.enabled) {
-        fprintf(stderr, "lodpipe: Draco compression (draco.enabled / --draco) is not implemented yet\n");
-        return LP_USAGE;
-    }
     for (size_t k = 0; k < c->config.lod.level_count && k < SIMPLIFY_MAX_LEVELS; ++k)
         c->levels[k] = c->config.lod.levels[k] / 100.0;
     return LP_OK;
