@@ -403,6 +403,29 @@ static int cmd_simplify(const cli *c)
     return rc;
 }
 
+/* A mesh of the main job waiting for its Draco encoding. */
+typedef struct draco_job {
+    uint32_t mesh;
+    dracoout_plan plan;
+    lodchain_summary chain; /* the level meshes (morph_errors not kept) */
+} draco_job;
+
+/* Encodes every chain once all are written. LODPIPE_DRACO_REFERENCE=FILE (a
+ * test hook) first writes the document as it is then: the same chains,
+ * uncompressed, so a test can compare the decoded streams with exactly what
+ * went into them. */
+static int draco_encode_all(scene *s, const draco_job *jobs, uint32_t count, const dracoout_options *o, lp_error *err)
+{
+    const char *reference = getenv("LODPIPE_DRACO_REFERENCE");
+    if (reference && *reference && write_document(s->doc, reference) != 0)
+        return lp_fail(err, LP_IO, "cannot write the Draco reference %s", reference);
+    dracoout_stats stats = {0};
+    int rc = LP_OK;
+    for (uint32_t i = 0; i < count && !rc; ++i)
+        rc = dracoout_write_mesh(s, jobs[i].mesh, &jobs[i].chain, o, &jobs[i].plan, &stats, err);
+    return rc;
+}
+
 /* The main job: every mesh of the default scene through the certified ladder
  * into an MSFT_lod chain, the document written to OUT all at once. */
 static int cmd_lod(const cli *c)
@@ -420,7 +443,12 @@ static int cmd_lod(const cli *c)
                               c->config.lod.min_reduction, 0, NULL};
     const int draco = c->config.draco.enabled;
     const dracoout_options draco_opt = draco_options_of(c);
-    dracoout_stats draco_stats = {0};
+    draco_job *draco_jobs = calloc((size_t)s.mesh_count + 1, sizeof *draco_jobs);
+    uint32_t draco_job_count = 0;
+    if (!draco_jobs) {
+        scene_free(&s);
+        return LP_IO;
+    }
     jsonw j = {0};
     jsonw_raw(&j, "{\"input\":");
     jsonw_string(&j, in);
@@ -456,7 +484,10 @@ static int cmd_lod(const cli *c)
         chain.added_error = draco ? plan.added_error : NULL;
         chain.keep_vertex_order = draco;
         if (!rc) rc = lodchain_write(&s, m, &w, &r, &chain, &sum, &err);
-        if (!rc && draco) rc = dracoout_write_mesh(&s, m, &sum, &draco_opt, &plan, &draco_stats, &err);
+        if (!rc && draco) { /* encoded once every chain is written (draco_encode_all) */
+            draco_jobs[draco_job_count] = (draco_job){m, plan, sum};
+            draco_jobs[draco_job_count++].chain.morph_errors = NULL;
+        }
         if (welded) weld_free(&w);
         if (rc) {
             lodchain_summary_free(&sum);
@@ -507,6 +538,8 @@ static int cmd_lod(const cli *c)
         simplify_result_free(&r);
     }
     jsonw_raw(&j, "]}\n");
+    if (!rc && draco) rc = draco_encode_all(&s, draco_jobs, draco_job_count, &draco_opt, &err);
+    free(draco_jobs);
     if (rc) {
         report(in, &err);
         jsonw_free(&j);
