@@ -364,9 +364,10 @@ for (const input of inputs) {
           const parts = decodedMeshes.get(level.mesh);
           const obj = path.join(wd, `decoded_${level.mesh}.obj`);
           fs.writeFileSync(obj, objText(parts));
-          const diag = meshDiagonal(decodedMeshes.get(meta.levels[0].mesh));
+          const diag = summary.meshes.find((x) => x.mesh === meta.levels[0].mesh)?.diagonal ?? meshDiagonal(decodedMeshes.get(meta.levels[0].mesh));
           const limit = level.error + SLACK_REL * diag;
-          const v = hausdorffWithin(obj, `${ref}#node=${n}`, limit, diag, SLACK_REL * diag);
+          // A = the original LOD0 (the tool's --within is relative to A's diagonal), B = the decoded mesh
+          const v = hausdorffWithin(`${ref}#node=${n}`, obj, limit, diag, SLACK_REL * diag);
           if (v.verdict !== 'pass') problems.push(`node ${n} level ${k} (mesh ${level.mesh}): ${v.verdict}, Hausdorff in [${v.lower}, ${v.upper}] vs recorded ${level.error}`);
         }
       }
