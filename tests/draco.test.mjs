@@ -244,7 +244,9 @@ function checkPrimitive(rawD, rawR, m, p) {
     if (posAcc.count !== stream.points) problems.push(`${label}: POSITION accessor count ${posAcc.count}, stream has ${stream.points} points`);
     if (rawD.json.accessors[jp.indices]?.count !== stream.faces.length) problems.push(`${label}: index accessor count differs from the stream's ${stream.faces.length}`);
     for (const name of Object.keys(jp.attributes)) if (ext.attributes[name] === undefined) problems.push(`${label}: ${name} is not in the Draco stream`);
-    let tol = 0;
+    // integer positions (KHR_mesh_quantization) are stored losslessly; draco3d hands them out as float32
+    // (normalized ones divided in float32), so allow float32 rounding of the largest coordinate
+    let tol = 4 * 2 ** -24 * exactPos.reduce((m, x) => Math.max(m, Math.abs(x)), 1e-30);
     if (exact.attrs.POSITION.componentType === 5126) {
       if (!pos.grid) problems.push(`${label}: float POSITION without a quantization grid`);
       else {
