@@ -170,6 +170,7 @@ bench: deps
 	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends python3-numpy
 	python3 bench/run.py
 	python3 bench/batch.py
+	python3 bench/draco.py
 
 # The independent topology oracle (OpenMesh), used by tests/simplify.test.mjs.
 $(BUILD)/mesh_check: tests/tools/mesh_check.cpp

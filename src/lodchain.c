@@ -25,7 +25,8 @@ static void warn(lodchain_summary *out, const char *fmt, ...)
 
 /* Levels worth writing: not empty, and removing at least min_reduction of the
  * previous kept level's triangles. */
-static uint32_t keep_levels(const weld_result *w, const simplify_result *r, double min_reduction, uint32_t *kept)
+uint32_t lodchain_kept_levels(const weld_result *w, const simplify_result *r, double min_reduction,
+                              uint32_t kept[SIMPLIFY_MAX_LEVELS])
 {
     uint32_t n = 0, previous = w->triangle_count;
     for (uint32_t k = 0; k < r->level_count; ++k) {
@@ -405,9 +406,18 @@ static int annotate_node(scene *s, int64_t node_id, uint32_t placed, uint32_t m,
     jsonw_number(&meta, o->camera.viewport_height);
     jsonw_raw(&meta, ",\"fov_y\":");
     jsonw_number(&meta, o->camera.fov_y);
-    jsonw_printf(&meta, "},\"levels\":[{\"node\":%u,\"mesh\":%u,\"error\":0,\"error_fraction\":0,\"triangles\":%llu,"
-                        "\"distance\":0,\"screen_coverage\":1}",
-                 node, m, (unsigned long long)s->meshes[m].triangle_count);
+    const double lod0_error = o->added_error ? o->added_error[0] : 0.0;
+    jsonw_printf(&meta, "},\"levels\":[{\"node\":%u,\"mesh\":%u,\"error\":", node, m);
+    jsonw_number(&meta, lod0_error);
+    jsonw_raw(&meta, ",\"error_fraction\":");
+    jsonw_number(&meta, diagonal > 0 ? lod0_error / diagonal : 0.0);
+    jsonw_printf(&meta, ",\"triangles\":%llu,\"distance\":0,\"screen_coverage\":1",
+                 (unsigned long long)s->meshes[m].triangle_count);
+    if (o->added_error) {
+        jsonw_raw(&meta, ",\"quantization_error\":");
+        jsonw_number(&meta, lod0_error);
+    }
+    jsonw_raw(&meta, "}");
     for (uint32_t k = 0; k < chain->level_count; ++k) {
         const lodchain_level *l = &chain->levels[k];
         double d = switching_distance(l->error, scale, &o->camera);
@@ -423,6 +433,10 @@ static int annotate_node(scene *s, int64_t node_id, uint32_t placed, uint32_t m,
         jsonw_number(&meta, d);
         jsonw_raw(&meta, ",\"screen_coverage\":");
         jsonw_number(&meta, c);
+        if (o->added_error) {
+            jsonw_raw(&meta, ",\"quantization_error\":");
+            jsonw_number(&meta, l->added_error);
+        }
         if (chain->target_count) {
             jsonw_raw(&meta, ",\"morph_errors\":[");
             for (uint32_t t = 0; t < chain->target_count; ++t) {
@@ -561,7 +575,7 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
 {
     memset(out, 0, sizeof *out);
     uint32_t kept[SIMPLIFY_MAX_LEVELS];
-    const uint32_t level_count = keep_levels(w, r, o->min_reduction, kept);
+    const uint32_t level_count = lodchain_kept_levels(w, r, o->min_reduction, kept);
     if (level_count == 0) return LP_OK;
     const scene_mesh *mesh = &s->meshes[m];
     out->level_count = level_count; /* before the reorder: morphs are measured in the original order */
@@ -578,8 +592,11 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
         if (!order || !new_of_old[p] || vertex_order(w, r, p, pr->vertex_count, order))
             rc = lp_fail(err, LP_INVALID, "out of memory");
         int reordered = 0;
-        if (!rc) rc = reorder_primitive(s, m, p, order, new_of_old[p], &reordered, err);
-        if (!rc && !reordered) out->primitives_not_reordered++;
+        if (!rc && o->keep_vertex_order)
+            for (uint32_t i = 0; i < pr->vertex_count; ++i) new_of_old[p][i] = i;
+        else if (!rc)
+            rc = reorder_primitive(s, m, p, order, new_of_old[p], &reordered, err);
+        if (!rc && !reordered && !o->keep_vertex_order) out->primitives_not_reordered++;
         free(order);
     }
     for (uint32_t k = 0; k < level_count && !rc; ++k) {
@@ -589,7 +606,8 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
             rc = err->code ? err->code : LP_INVALID;
             break;
         }
-        out->levels[k] = (lodchain_level){kept[k] + 1, lod, level->triangle_count, level->eps, level->bound};
+        const double added = o->added_error ? o->added_error[kept[k] + 1] : 0.0;
+        out->levels[k] = (lodchain_level){kept[k] + 1, lod, level->triangle_count, level->eps, level->bound + added, added};
         out->level_count = k + 1;
     }
     for (uint32_t n = 0; n < s->node_count && !rc; ++n) {

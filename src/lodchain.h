@@ -37,13 +37,24 @@
 typedef struct lodchain_options {
     switching_camera camera;
     double min_reduction;
+    /* 1: leave every vertex accessor in its order (Draco output: the encoder
+     * orders vertices itself, so the death-order reorder would be wasted). */
+    int keep_vertex_order;
+    /* NULL, or per ladder level an error added to the level's certified bound
+     * by a later lossy stage (Draco's position quantization, dracoout.h):
+     * added_error[0] is LOD0's, added_error[k] ladder level k's (1-based).
+     * The recorded error becomes bound + added (so distances and coverages
+     * use the sum), LOD0's recorded error becomes added_error[0], and each
+     * level's extras.lodpipe entry gets "quantization_error". */
+    const double *added_error;
 } lodchain_options;
 
 typedef struct lodchain_level {
     uint32_t ladder_level; /* 1-based position in the eps ladder */
     int64_t mesh;          /* new glTF mesh */
     uint32_t triangles;
-    double eps, error;     /* mesh units */
+    double eps, error;     /* mesh units; error = certified bound + added error */
+    double added_error;    /* options->added_error's share of error (0 without) */
 } lodchain_level;
 
 typedef struct lodchain_summary {
@@ -58,6 +69,12 @@ typedef struct lodchain_summary {
     uint32_t warning_count;
     char warnings[4][200];
 } lodchain_summary;
+
+/* The ladder levels lodchain_write keeps (0-based indices into r->levels, in
+ * order): not empty, and removing at least min_reduction of the previous kept
+ * level's triangles. Returns how many. */
+uint32_t lodchain_kept_levels(const weld_result *w, const simplify_result *r, double min_reduction,
+                              uint32_t kept[SIMPLIFY_MAX_LEVELS]);
 
 int lodchain_write(scene *s, uint32_t mesh, const weld_result *w, const simplify_result *r,
                    const lodchain_options *options, lodchain_summary *out, lp_error *err);

@@ -379,6 +379,7 @@ bool load_image_as_is(tinygltf::Image *image, const int, std::string *, std::str
 struct ViewBytes {
     const uint8_t *ptr = nullptr; // into a loaded buffer, or into owned
     size_t size = 0;
+    int slot = 0; // output buffer: 0 the main one, 1 the side buffer (gltf_add_view_in)
     std::vector<uint8_t> owned;
 };
 
@@ -825,17 +826,11 @@ void decode_compression(gltf_doc *doc)
 
 // ---- C records -------------------------------------------------------------------
 
-void build_records(gltf_doc *doc)
+// The C records of mesh m's primitives (names, attributes, targets).
+void build_mesh_records(gltf_doc *doc, size_t m)
 {
-    const ojson &root = doc->json;
-    for (int k = 0; k < GLTF_KIND_COUNT; ++k) {
-        const ojson &arr = array_of(root, kKindArrays[k]);
-        doc->names[k].resize(arr.size());
-        for (size_t i = 0; i < arr.size(); ++i) doc->names[k][i] = arr[i].value("name", std::string());
-    }
-    const ojson &meshes = array_of(root, "meshes");
-    doc->prims.resize(meshes.size());
-    for (size_t m = 0; m < meshes.size(); ++m) {
+    const ojson &meshes = array_of(doc->json, "meshes");
+    {
         const ojson &prims = array_of(meshes[m], "primitives");
         doc->prims[m].resize(prims.size());
         for (size_t p = 0; p < prims.size(); ++p) {
@@ -873,6 +868,19 @@ void build_records(gltf_doc *doc)
             r.was_draco = 0;
         }
     }
+}
+
+void build_records(gltf_doc *doc)
+{
+    const ojson &root = doc->json;
+    for (int k = 0; k < GLTF_KIND_COUNT; ++k) {
+        const ojson &arr = array_of(root, kKindArrays[k]);
+        doc->names[k].resize(arr.size());
+        for (size_t i = 0; i < arr.size(); ++i) doc->names[k][i] = arr[i].value("name", std::string());
+    }
+    const ojson &meshes = array_of(root, "meshes");
+    doc->prims.resize(meshes.size());
+    for (size_t m = 0; m < meshes.size(); ++m) build_mesh_records(doc, m);
     const ojson &nodes = array_of(root, "nodes");
     doc->node_children.resize(nodes.size());
     doc->node_lods.resize(nodes.size());
@@ -1171,13 +1179,29 @@ extern "C" const char *gltf_extension_name(const gltf_doc *doc, int required, si
 
 extern "C" int64_t gltf_add_view(gltf_doc *doc, const void *bytes, size_t size, uint64_t byte_stride, int target)
 {
+    return gltf_add_view_in(doc, bytes, size, byte_stride, target, 0);
+}
+
+extern "C" int64_t gltf_add_view_in(gltf_doc *doc, const void *bytes, size_t size, uint64_t byte_stride, int target,
+                                    int slot)
+{
     try {
         const uint8_t *b = static_cast<const uint8_t *>(bytes);
         size_t v = add_owned_view(doc, std::vector<uint8_t>(b, b + size), target);
         if (byte_stride) doc->json["bufferViews"][v]["byteStride"] = byte_stride;
+        doc->views[v].slot = slot == 1 ? 1 : 0;
         return int64_t(v);
     } catch (...) {
         return -1;
+    }
+}
+
+extern "C" void gltf_sync_mesh_records(gltf_doc *doc)
+{
+    const ojson &meshes = array_of(doc->json, "meshes");
+    for (size_t m = doc->prims.size(); m < meshes.size(); ++m) {
+        doc->prims.emplace_back();
+        build_mesh_records(doc, m);
     }
 }
 
@@ -1271,6 +1295,8 @@ extern "C" size_t gltf_accessor_refs(const gltf_doc *doc, size_t index)
         if (o.is_object()) {
             for (auto it = o.begin(); it != o.end(); ++it) {
                 if (it.key() == "extras") continue;
+                // its "attributes" are ids inside the Draco stream, not accessors
+                if (in_ext && it.key() == kDraco) continue;
                 if (in_ext && (it.key() == "accessor" || it.key() == "attributes")) {
                     if (it.value().is_object())
                         for (auto &a : it.value()) count(a);
@@ -1382,14 +1408,16 @@ void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<glt
         if (v < used.size()) used[v] = 1;
     });
     std::vector<int64_t> remap(doc->views.size(), -1);
-    std::vector<uint8_t> bin;
+    std::vector<uint8_t> bin, side;
     ojson views = ojson::array();
     for (size_t v = 0; v < doc->views.size(); ++v) {
-        if (!used[v] && v < doc->referenced_at_load.size() && doc->referenced_at_load[v]) continue;
+        // dropped: a view nothing points at any more, unless the input itself left it unused
+        if (!used[v] && (v >= doc->referenced_at_load.size() || doc->referenced_at_load[v])) continue;
         ojson view = doc->json["bufferViews"][v];
-        while (bin.size() % 4) bin.push_back(0);
-        view["buffer"] = 0;
-        view["byteOffset"] = bin.size();
+        std::vector<uint8_t> &out = doc->views[v].slot ? side : bin;
+        while (out.size() % 4) out.push_back(0);
+        view["buffer"] = doc->views[v].slot;
+        view["byteOffset"] = out.size();
         view["byteLength"] = doc->views[v].size;
         if (view["byteOffset"] == 0) view.erase("byteOffset");
         // keep the key order of the original object: re-insert in place
@@ -1398,7 +1426,7 @@ void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<glt
             if (view.contains(it.key())) ordered[it.key()] = view[it.key()];
         for (auto it = view.begin(); it != view.end(); ++it)
             if (!ordered.contains(it.key())) ordered[it.key()] = it.value();
-        bin.insert(bin.end(), doc->views[v].ptr, doc->views[v].ptr + doc->views[v].size);
+        out.insert(out.end(), doc->views[v].ptr, doc->views[v].ptr + doc->views[v].size);
         remap[v] = int64_t(views.size());
         views.push_back(ordered);
     }
@@ -1421,6 +1449,15 @@ void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<glt
         if (!glb) buffer["uri"] = stem + ".bin";
         buffer["byteLength"] = bin.size();
         root["buffers"] = ojson::array({buffer});
+    }
+    // The side buffer (e.g. Draco's uncompressed fallback) is always a file of
+    // its own, so a client that does not need it never fetches it.
+    const std::string side_name = stem + ".fallback.bin";
+    if (!side.empty()) {
+        ojson buffer = ojson::object();
+        buffer["uri"] = side_name;
+        buffer["byteLength"] = side.size();
+        root["buffers"].push_back(buffer);
     }
 
     // External images travel beside the output under their own relative uri.
@@ -1457,6 +1494,7 @@ void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<glt
         add_file(files, base_of(out_path), bytes_of(text));
         if (!bin.empty() || !views.empty()) add_file(files, stem + ".bin", bin);
     }
+    if (!side.empty()) add_file(files, side_name, side);
     for (auto &img : images) add_file(files, img.first, *img.second);
 }
 

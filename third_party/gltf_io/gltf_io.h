@@ -15,7 +15,8 @@
  * - gltf_serialize writes the document back: the JSON exactly as it was read (key
  *   order, numbers, names, extras, unknown extensions) apart from the caller's edits;
  *   all binary data repacked into ONE buffer (bufferView indices renumbered only when
- *   a view became unused by decoding). The format follows the output name: ".glb",
+ *   a view became unused: by decoding, or by an edit; views the input itself left
+ *   unused are kept), plus a side buffer file when gltf_add_view_in asked for one. The format follows the output name: ".glb",
  *   or else JSON + "<name>.bin". Images keep their storage form: bufferView and
  *   data: URI images stay inside; an external image file is written beside the
  *   output under its original relative uri (so textures shared by several assets
@@ -150,6 +151,14 @@ const char *gltf_extension_name(const gltf_doc *doc, int required, size_t index)
  * 34963 indices). Returns its index, or -1 on allocation failure. */
 int64_t gltf_add_view(gltf_doc *doc, const void *bytes, size_t size, uint64_t byte_stride,
                       int target);
+/* As gltf_add_view, into output buffer `slot`: 0 the main buffer, 1 a side
+ * buffer written as its own file "<OUT stem>.fallback.bin" (also beside a
+ * .glb), for data most clients never fetch (Draco's uncompressed fallback). */
+int64_t gltf_add_view_in(gltf_doc *doc, const void *bytes, size_t size, uint64_t byte_stride, int target, int slot);
+/* Builds the primitive records (gltf_primitive_count, gltf_get_primitive) of
+ * meshes appended since loading; records of earlier meshes stay as they were
+ * (pointers into them stay valid). */
+void gltf_sync_mesh_records(gltf_doc *doc);
 /* Appends the JSON object `json` to the top-level array `array` ("accessors",
  * "meshes", "nodes", ...), creating it if absent. Returns the new index, or -1 when
  * json does not parse to an object. */
