@@ -163,7 +163,8 @@ fuzz: fuzz-build
 	done
 
 # ---- benchmarks: quality and speed against meshoptimizer, into bench/RESULTS.md --------
-# Measurements, not tests (about 40 minutes on this 2-core machine).
+# Measurements, not tests (about 75 minutes on this 2-core machine: run.py's quality part
+# is most of it; batch.py and draco.py take a few minutes each).
 bench: deps
 	$(MAKE) all hausdorff
 	@command -v python3 >/dev/null && python3 -c 'import numpy' 2>/dev/null || \
