@@ -15,7 +15,6 @@
 #include "dracoout.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -208,28 +207,6 @@ int dracoout_plan_mesh(const scene *s, uint32_t m, const weld_result *w, const s
 
 /* ---- writing ----------------------------------------------------------------------- */
 
-static int set_json(gltf_doc *doc, const char *value, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int set_json(gltf_doc *doc, const char *value, const char *fmt, ...)
-{
-    char pointer[256];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(pointer, sizeof pointer, fmt, ap);
-    va_end(ap);
-    return gltf_set_json(doc, pointer, value);
-}
-
-static void remove_json(gltf_doc *doc, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void remove_json(gltf_doc *doc, const char *fmt, ...)
-{
-    char pointer[256];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(pointer, sizeof pointer, fmt, ap);
-    va_end(ap);
-    gltf_remove_json(doc, pointer);
-}
-
 static const char *type_name(int components)
 {
     static const char *const names[5] = {"", "SCALAR", "VEC2", "VEC3", "VEC4"};
@@ -308,7 +285,7 @@ static int describe_accessor(gltf_doc *doc, int64_t a, uint32_t count, int type,
             gltf_remove_json(doc, to);
             gltf_copy_json(doc, from, to); /* -1 when the description has no such key */
         }
-        if (scratch >= 0) remove_json(doc, "/accessors/%lld", (long long)scratch);
+        if (scratch >= 0) gltf_remove_jsonf(doc, "/accessors/%lld", (long long)scratch);
         *result = a;
     } else {
         *result = gltf_append_json(doc, "accessors", j.text);
@@ -547,7 +524,7 @@ static int compact_targets(gltf_doc *doc, uint32_t mesh, uint32_t prim, const gl
             if (rc) return rc;
             char value[32];
             snprintf(value, sizeof value, "%lld", (long long)result);
-            if (set_json(doc, value, "/meshes/%u/primitives/%u/targets/%zu/%s", mesh, prim, t, ta->name) != 0)
+            if (gltf_set_jsonf(doc, value, "/meshes/%u/primitives/%u/targets/%zu/%s", mesh, prim, t, ta->name) != 0)
                 return lp_fail(err, LP_INVALID, "cannot set a morph target");
         }
     return LP_OK;
@@ -581,7 +558,7 @@ static int write_primitive(gltf_doc *doc, uint32_t mesh, uint32_t prim, const gl
         free(values);
         char value[32];
         snprintf(value, sizeof value, "%lld", (long long)result);
-        if (!rc && set_json(doc, value, "/meshes/%u/primitives/%u/attributes/%s", mesh, prim, g->attributes[a].name))
+        if (!rc && gltf_set_jsonf(doc, value, "/meshes/%u/primitives/%u/attributes/%s", mesh, prim, g->attributes[a].name))
             rc = lp_fail(err, LP_INVALID, "cannot set an attribute");
         if (a) jsonw_raw(&ext, ",");
         jsonw_string(&ext, g->attributes[a].name);
@@ -617,10 +594,10 @@ static int write_primitive(gltf_doc *doc, uint32_t mesh, uint32_t prim, const gl
     if (!rc) {
         char value[32];
         snprintf(value, sizeof value, "%lld", (long long)index_accessor);
-        if (ext.failed || set_json(doc, value, "/meshes/%u/primitives/%u/indices", mesh, prim) != 0 ||
-            set_json(doc, ext.text, "/meshes/%u/primitives/%u/extensions/KHR_draco_mesh_compression", mesh, prim) != 0)
+        if (ext.failed || gltf_set_jsonf(doc, value, "/meshes/%u/primitives/%u/indices", mesh, prim) != 0 ||
+            gltf_set_jsonf(doc, ext.text, "/meshes/%u/primitives/%u/extensions/KHR_draco_mesh_compression", mesh, prim) != 0)
             rc = lp_fail(err, LP_INVALID, "cannot write the Draco primitive");
-        remove_json(doc, "/meshes/%u/primitives/%u/mode", mesh, prim); /* triangles */
+        gltf_remove_jsonf(doc, "/meshes/%u/primitives/%u/mode", mesh, prim); /* triangles */
     }
     jsonw_free(&ext);
     return rc;

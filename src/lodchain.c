@@ -84,17 +84,6 @@ static int set_json(gltf_doc *doc, lp_error *err, const char *value, const char 
     return LP_OK;
 }
 
-static void remove_json(gltf_doc *doc, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void remove_json(gltf_doc *doc, const char *fmt, ...)
-{
-    char pointer[256];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(pointer, sizeof pointer, fmt, ap);
-    va_end(ap);
-    gltf_remove_json(doc, pointer);
-}
-
 /* Rewrites accessor a's data in the new vertex order, in place: it keeps its
  * number and JSON and points at a new bufferView (sparse data folded in). */
 static int reorder_accessor(gltf_doc *doc, int64_t a, const uint32_t *new_of_old, uint32_t vertex_count,
@@ -122,8 +111,8 @@ static int reorder_accessor(gltf_doc *doc, int64_t a, const uint32_t *new_of_old
     char value[32];
     snprintf(value, sizeof value, "%lld", (long long)view);
     rc = set_json(doc, err, value, "/accessors/%lld/bufferView", (long long)a);
-    remove_json(doc, "/accessors/%lld/byteOffset", (long long)a);
-    remove_json(doc, "/accessors/%lld/sparse", (long long)a);
+    gltf_remove_jsonf(doc, "/accessors/%lld/byteOffset", (long long)a);
+    gltf_remove_jsonf(doc, "/accessors/%lld/sparse", (long long)a);
     return rc;
 }
 
@@ -226,8 +215,8 @@ static int reorder_primitive(scene *s, uint32_t m, uint32_t p, const uint32_t *o
         if (view < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
         snprintf(value, sizeof value, "%lld", (long long)view);
         if (!rc) rc = set_json(s->doc, err, value, "/accessors/%lld/bufferView", (long long)g.indices);
-        remove_json(s->doc, "/accessors/%lld/byteOffset", (long long)g.indices);
-        remove_json(s->doc, "/accessors/%lld/sparse", (long long)g.indices);
+        gltf_remove_jsonf(s->doc, "/accessors/%lld/byteOffset", (long long)g.indices);
+        gltf_remove_jsonf(s->doc, "/accessors/%lld/sparse", (long long)g.indices);
     } else {
         int64_t a = append_indices(s->doc, idx, n);
         if (a < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
@@ -291,7 +280,7 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
         char value[32];
         snprintf(value, sizeof value, "%lld", (long long)a);
         if (set_json(s->doc, err, value, "/meshes/%lld/primitives/%u/indices", (long long)lod, written)) return -1;
-        remove_json(s->doc, "/meshes/%lld/primitives/%u/mode", (long long)lod, written); /* triangles */
+        gltf_remove_jsonf(s->doc, "/meshes/%lld/primitives/%u/mode", (long long)lod, written); /* triangles */
         written++;
     }
     return lod;

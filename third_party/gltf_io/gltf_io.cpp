@@ -26,6 +26,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -1244,6 +1245,33 @@ extern "C" int gltf_remove_json(gltf_doc *doc, const char *pointer)
     } catch (...) {
         return -1;
     }
+}
+
+// A printf-style JSON pointer in `out` (256 bytes); false when it does not fit.
+static bool format_pointer(char (&out)[256], const char *format, va_list ap)
+{
+    const int n = vsnprintf(out, sizeof out, format, ap);
+    return n >= 0 && size_t(n) < sizeof out;
+}
+
+extern "C" int gltf_set_jsonf(gltf_doc *doc, const char *json, const char *pointer_format, ...)
+{
+    char pointer[256];
+    va_list ap;
+    va_start(ap, pointer_format);
+    const bool ok = format_pointer(pointer, pointer_format, ap);
+    va_end(ap);
+    return ok ? gltf_set_json(doc, pointer, json) : -1;
+}
+
+extern "C" int gltf_remove_jsonf(gltf_doc *doc, const char *pointer_format, ...)
+{
+    char pointer[256];
+    va_list ap;
+    va_start(ap, pointer_format);
+    const bool ok = format_pointer(pointer, pointer_format, ap);
+    va_end(ap);
+    return ok ? gltf_remove_json(doc, pointer) : -1;
 }
 
 extern "C" int gltf_copy_json(gltf_doc *doc, const char *from, const char *to)

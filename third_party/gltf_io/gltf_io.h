@@ -168,6 +168,11 @@ int64_t gltf_append_json(gltf_doc *doc, const char *array, const char *json);
 int gltf_set_json(gltf_doc *doc, const char *pointer, const char *json);
 /* Removes the value at the JSON pointer (0), or -1 when there is none. */
 int gltf_remove_json(gltf_doc *doc, const char *pointer);
+/* The same two with the pointer given printf-style ("/meshes/%u/primitives/%u/mode");
+ * -1 also when the formatted pointer does not fit 256 bytes. */
+int gltf_set_jsonf(gltf_doc *doc, const char *json, const char *pointer_format, ...)
+    __attribute__((format(printf, 3, 4)));
+int gltf_remove_jsonf(gltf_doc *doc, const char *pointer_format, ...) __attribute__((format(printf, 2, 3)));
 /* Copies the value at `from` to `to` (both JSON pointers; `to` may end in
  * "/-" to append to an array). Returns 0, or -1 when `from` does not exist. */
 int gltf_copy_json(gltf_doc *doc, const char *from, const char *to);
