@@ -770,7 +770,7 @@ def write_results(path, text):
     with open(path, "w") as f:
         f.write(text)
         for block in kept:
-            f.write("\n" + block if not block.endswith("\n") else "\n" + block)
+            f.write("\n" + block)
 
 
 def main():
