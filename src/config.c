@@ -24,7 +24,9 @@ typedef enum key_kind {
     KIND_LEVELS,  /* lod.levels: array of percentages */
     KIND_NUMBER,  /* double */
     KIND_INTEGER, /* int */
-    KIND_BOOLEAN  /* int, 0 or 1 */
+    KIND_BOOLEAN, /* int, 0 or 1 */
+    KIND_CHOICE,  /* int: index into the key's choices (a string in the file) */
+    KIND_LEVEL_SET /* uint32_t: bit k-1 for ladder level k (an array of level numbers) */
 } key_kind;
 
 typedef struct key_spec {
@@ -35,7 +37,10 @@ typedef struct key_spec {
     double lo, hi;     /* NUMBER and INTEGER: the range ... */
     int lo_open, hi_open; /* ... with open or closed ends */
     const char *range; /* how the range reads in a message */
+    const char *const *choices; /* KIND_CHOICE: the strings, NULL-terminated */
 } key_spec;
+
+static const char *const kPlacements[] = {"half-edge", "optimal", NULL};
 
 #define PI_ 3.14159265358979323846
 
@@ -43,36 +48,40 @@ typedef struct key_spec {
  * contiguous; a table's name is the part of the key before the dot. */
 static const key_spec kKeys[] = {
     {"lod.levels", "--levels", KIND_LEVELS, offsetof(lp_config, lod.levels), 0, 100, 1, 0,
-     "(0, 100]"},
+     "(0, 100]", NULL},
     {"lod.min_reduction", NULL, KIND_NUMBER, offsetof(lp_config, lod.min_reduction), 0, 1, 0, 1,
-     "in [0, 1)"},
+     "in [0, 1)", NULL},
     {"lod.flip_cos", NULL, KIND_NUMBER, offsetof(lp_config, lod.flip_cos), -1, 1, 0, 1,
-     "in [-1, 1)"},
+     "in [-1, 1)", NULL},
     {"lod.strict_intersections", NULL, KIND_BOOLEAN, offsetof(lp_config, lod.strict_intersections), 0, 1, 0, 0,
-     NULL},
+     NULL, NULL},
+    {"lod.placement", "--placement", KIND_CHOICE, offsetof(lp_config, lod.placement), 0, 0, 0, 0,
+     "\"half-edge\" or \"optimal\"", kPlacements},
+    {"lod.optimal_levels", "--optimal-levels", KIND_LEVEL_SET, offsetof(lp_config, lod.optimal_levels), 1,
+     LP_CONFIG_MAX_LEVELS, 0, 0, "level numbers in 1..16", NULL},
     {"switching.pixel_error", "--pixel-error", KIND_NUMBER,
-     offsetof(lp_config, switching.pixel_error), 0, INFINITY, 1, 1, "> 0"},
+     offsetof(lp_config, switching.pixel_error), 0, INFINITY, 1, 1, "> 0", NULL},
     {"switching.viewport_height", "--viewport-height", KIND_NUMBER,
-     offsetof(lp_config, switching.viewport_height), 0, INFINITY, 1, 1, "> 0"},
+     offsetof(lp_config, switching.viewport_height), 0, INFINITY, 1, 1, "> 0", NULL},
     {"switching.fov_y", "--fov-y", KIND_NUMBER, offsetof(lp_config, switching.fov_y), 0, PI_, 1,
-     1, "in (0, pi) radians"},
+     1, "in (0, pi) radians", NULL},
     {"run.threads", "--threads", KIND_INTEGER, offsetof(lp_config, run.threads), 0, 64, 0, 0,
-     "in 0..64 (0 = one per core)"},
+     "in 0..64 (0 = one per core)", NULL},
     {"draco.enabled", "--draco", KIND_BOOLEAN, offsetof(lp_config, draco.enabled), 0, 1, 0, 0,
-     NULL},
+     NULL, NULL},
     {"draco.position_bits", NULL, KIND_INTEGER, offsetof(lp_config, draco.position_bits), 1, 30,
-     0, 0, "in 1..30"},
+     0, 0, "in 1..30", NULL},
     {"draco.normal_bits", NULL, KIND_INTEGER, offsetof(lp_config, draco.normal_bits), 2, 30, 0, 0,
-     "in 2..30"},
+     "in 2..30", NULL},
     {"draco.texcoord_bits", NULL, KIND_INTEGER, offsetof(lp_config, draco.texcoord_bits), 1, 30,
-     0, 0, "in 1..30"},
+     0, 0, "in 1..30", NULL},
     {"draco.color_bits", NULL, KIND_INTEGER, offsetof(lp_config, draco.color_bits), 1, 30, 0, 0,
-     "in 1..30"},
+     "in 1..30", NULL},
     {"draco.generic_bits", NULL, KIND_INTEGER, offsetof(lp_config, draco.generic_bits), 1, 30, 0,
-     0, "in 1..30"},
+     0, "in 1..30", NULL},
     {"draco.speed", NULL, KIND_INTEGER, offsetof(lp_config, draco.speed), 0, 10, 0, 0,
-     "in 0..10"},
-    {"draco.fallback", NULL, KIND_BOOLEAN, offsetof(lp_config, draco.fallback), 0, 1, 0, 0, NULL},
+     "in 0..10", NULL},
+    {"draco.fallback", NULL, KIND_BOOLEAN, offsetof(lp_config, draco.fallback), 0, 1, 0, 0, NULL, NULL},
 };
 #define KEY_COUNT (sizeof kKeys / sizeof kKeys[0])
 
@@ -85,6 +94,8 @@ void config_defaults(lp_config *c)
     c->lod.min_reduction = 0.10;
     c->lod.flip_cos = 0.25;
     c->lod.strict_intersections = 0;
+    c->lod.placement = 0;
+    c->lod.optimal_levels = 0;
     c->switching.pixel_error = 1.0;
     c->switching.viewport_height = 1080;
     c->switching.fov_y = 0.7853981633974483; /* pi / 4 */
@@ -111,6 +122,12 @@ static int *int_field(lp_config *c, const key_spec *k)
     return (int *)((char *)c + k->offset);
 }
 
+static uint32_t *set_field(lp_config *c, const key_spec *k)
+{
+    return (uint32_t *)((char *)c + k->offset);
+}
+
+
 /* v as text that reads back to exactly v: whole numbers below 2^53 as
  * integers ("1080"), others in the shortest "%.Ng" ("0.1", "1e-05"); -0 is
  * written as 0. Valid in TOML and JSON alike (v is finite). */
@@ -126,6 +143,28 @@ static void format_number(char *out, size_t n, double v)
         if (strtod(out, NULL) == v) return;
     }
     snprintf(out, n, "%.17g", v);
+}
+
+/* The index of text among k's choices, or -1 with a problem. */
+static int find_choice(const key_spec *k, const char *text, char *problem, size_t n)
+{
+    for (int i = 0; k->choices[i]; ++i)
+        if (strcmp(k->choices[i], text) == 0) return i;
+    snprintf(problem, n, "must be %s, got \"%.60s\"", k->range, text);
+    return -1;
+}
+
+/* Adds level number v to *set, or returns -1 with a problem. */
+static int add_level_number(const key_spec *k, double v, uint32_t *set, char *problem, size_t n)
+{
+    char got[40];
+    format_number(got, sizeof got, v);
+    if (!(v >= k->lo && v <= k->hi) || v != floor(v)) {
+        snprintf(problem, n, "must list %s, got %s", k->range, got);
+        return -1;
+    }
+    *set |= 1u << ((unsigned)v - 1u);
+    return 0;
 }
 
 /* Length of the table part of a dotted key ("lod" in "lod.levels"). */
@@ -334,6 +373,33 @@ static int apply_entry(lp_config *c, const toml_io_entry *e, char *problem, size
         }
         *int_field(c, k) = v->boolean ? 1 : 0;
         return 0;
+    case KIND_CHOICE: {
+        if (v->type != TOML_IO_STRING) {
+            snprintf(problem, n, "must be a string (%s), not %s", k->range, type_name(v->type));
+            return -1;
+        }
+        int i = find_choice(k, v->string, problem, n);
+        if (i < 0) return -1;
+        *int_field(c, k) = i;
+        return 0;
+    }
+    case KIND_LEVEL_SET: {
+        if (v->type != TOML_IO_ARRAY) {
+            snprintf(problem, n, "must be an array of %s, not %s", k->range, type_name(v->type));
+            return -1;
+        }
+        uint32_t set = 0;
+        for (size_t i = 0; i < e->element_count; ++i) {
+            const toml_io_value *el = &e->elements[i];
+            if (el->type != TOML_IO_INTEGER) {
+                snprintf(problem, n, "value %zu must be an integer level number, not %s", i + 1, type_name(el->type));
+                return -1;
+            }
+            if (add_level_number(k, (double)el->integer, &set, problem, n)) return -1;
+        }
+        *set_field(c, k) = set;
+        return 0;
+    }
     }
     return 0;
 }
@@ -467,6 +533,35 @@ int config_set(lp_config *config, const char *name, const char *text, lp_error *
             goto fail;
         }
         return LP_OK;
+    case KIND_CHOICE: {
+        int i = find_choice(k, text, problem, sizeof problem);
+        if (i < 0) goto fail;
+        *int_field(config, k) = i;
+        return LP_OK;
+    }
+    case KIND_LEVEL_SET: {
+        uint32_t set = 0;
+        const char *p = text;
+        while (*p == ' ') ++p;
+        while (*p) { /* "" is the empty set */
+            char *end;
+            double v = strtod(p, &end);
+            if (end == p) {
+                snprintf(problem, sizeof problem, "expected comma-separated level numbers, e.g. 3,4");
+                goto fail;
+            }
+            if (add_level_number(k, v, &set, problem, sizeof problem)) goto fail;
+            p = end;
+            while (*p == ' ') ++p;
+            if (*p == ',') ++p;
+            else if (*p) {
+                snprintf(problem, sizeof problem, "expected comma-separated level numbers, e.g. 3,4");
+                goto fail;
+            }
+        }
+        *set_field(config, k) = set;
+        return LP_OK;
+    }
     }
     return LP_OK;
 fail:
@@ -489,7 +584,11 @@ int config_equal(const lp_config *a, const lp_config *b)
             if (*number_field((lp_config *)a, k) != *number_field((lp_config *)b, k)) return 0;
             break;
         case KIND_INTEGER:
+        case KIND_CHOICE:
             if (*int_field((lp_config *)a, k) != *int_field((lp_config *)b, k)) return 0;
+            break;
+        case KIND_LEVEL_SET:
+            if (*set_field((lp_config *)a, k) != *set_field((lp_config *)b, k)) return 0;
             break;
         case KIND_BOOLEAN:
             if (!*int_field((lp_config *)a, k) != !*int_field((lp_config *)b, k)) return 0;
@@ -539,6 +638,21 @@ static void put_value(text_out *o, const lp_config *c, const key_spec *k)
     case KIND_BOOLEAN:
         put(o, "%s", *int_field((lp_config *)c, k) ? "true" : "false");
         break;
+    case KIND_CHOICE:
+        put(o, "\"%s\"", k->choices[*int_field((lp_config *)c, k)]);
+        break;
+    case KIND_LEVEL_SET: {
+        const uint32_t set = *set_field((lp_config *)c, k);
+        int first = 1;
+        put(o, "[");
+        for (unsigned j = 0; j < LP_CONFIG_MAX_LEVELS; ++j)
+            if (set & (1u << j)) {
+                put(o, "%s%u", first ? "" : ", ", j + 1);
+                first = 0;
+            }
+        put(o, "]");
+        break;
+    }
     }
 }
 

@@ -21,6 +21,12 @@
  *                strict_intersections  test every collapse for
  *                               self-intersections, not only where the
  *                               original is thin                       false
+ *                placement      "half-edge" (levels share one vertex
+ *                               buffer) or "optimal" (full-edge
+ *                               collapses may place the kept vertex)
+ *                                                                 "half-edge"
+ *                optimal_levels with "optimal": the level numbers (1-based)
+ *                               that may place vertices; [] = every level []
  *   [switching]  pixel_error    p, pixels of screen error at the switching
  *                               distance; > 0                             1.0
  *                viewport_height  H, pixels; > 0                         1080
@@ -58,6 +64,8 @@
 
 #include <stddef.h>
 
+#include <stdint.h>
+
 #include "status.h"
 
 #define LP_CONFIG_MAX_LEVELS 16
@@ -69,6 +77,8 @@ typedef struct lp_config {
         double min_reduction;
         double flip_cos;
         int strict_intersections; /* 0 or 1 */
+        int placement;            /* 0 "half-edge", 1 "optimal" */
+        uint32_t optimal_levels;  /* bit k-1: ladder level k may place vertices; 0 = every level */
     } lod;
     struct {
         double pixel_error;
@@ -102,11 +112,14 @@ int config_load(lp_config *config, const char *path, lp_error *err);
 /* Sets one key from text, as a CLI flag does. `name` is either a dotted key
  * ("switching.pixel_error"; every key can be set this way) or one of the CLI
  * flags below. Value text: a number ("2", "0.5", "1e-3"), an integer ("8"),
- * a boolean ("true" / "false"), or for lod.levels a comma-separated list of
+ * a boolean ("true" / "false"), a choice ("optimal"), for lod.optimal_levels
+ * comma-separated level numbers ("3,4"; "" for none), or for lod.levels a comma-separated list of
  * percentages ("1,3,7,15"). The value is validated like the file's.
  * Returns LP_OK, or LP_USAGE with err filled and the configuration unchanged.
  *
  *   --levels          lod.levels
+ *   --placement       lod.placement
+ *   --optimal-levels  lod.optimal_levels (comma-separated level numbers)
  *   --pixel-error     switching.pixel_error
  *   --viewport-height switching.viewport_height
  *   --fov-y           switching.fov_y

@@ -101,7 +101,8 @@ static void level_boxes(const scene_mesh *mesh, const weld_result *w, const simp
     for (size_t i = 0; i < corners; ++i) {
         const uint32_t wedge = level->wedges[i];
         const uint32_t p = w->wedge_primitive[wedge];
-        const float *x = mesh->primitives[p].positions + 3 * (size_t)w->wedge_index[wedge];
+        const float *x = level->positions ? level->positions + 3 * (size_t)w->wedge_vertex[wedge]
+                                          : mesh->primitives[p].positions + 3 * (size_t)w->wedge_index[wedge];
         used[p] = 1;
         for (int c = 0; c < 3; ++c) {
             if (x[c] < lo[3 * p + c]) lo[3 * p + c] = x[c];

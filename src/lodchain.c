@@ -230,6 +230,106 @@ static int reorder_primitive(scene *s, uint32_t m, uint32_t p, const uint32_t *o
 
 /* ---- level meshes ---------------------------------------------------------------- */
 
+/* A level that placed vertices (full-edge placement, level->positions) cannot
+ * index the original POSITION accessor as it is. This writes a new accessor
+ * for primitive p (POSITION accessor `base`, vertices in the written order)
+ * in which the vertices the level uses are where the level put them:
+ * when base is plain float VEC3 data, a sparse accessor over base's own
+ * bufferView that substitutes only the moved vertices (the level shares the
+ * rest); otherwise every position as new float VEC3 data. Returns its number,
+ * -2 when no vertex of the primitive moved (base serves as it is), -1 when
+ * memory runs out. */
+static int64_t level_positions(gltf_doc *doc, const scene_primitive *pr, uint32_t p, int64_t base, const weld_result *w,
+                               const simplify_level *level, const uint32_t *new_of_old)
+{
+    const size_t n = pr->vertex_count;
+    float *out = malloc((3 * n + 1) * sizeof *out);
+    uint8_t *moved = calloc(n + 1, 1);
+    if (!out || !moved) {
+        free(out);
+        free(moved);
+        return -1;
+    }
+    for (size_t i = 0; i < n; ++i) memcpy(out + 3 * (size_t)new_of_old[i], pr->positions + 3 * i, 3 * sizeof *out);
+    size_t moved_count = 0;
+    for (size_t i = 0; i < 3 * (size_t)level->triangle_count; ++i) { /* only the vertices the level uses */
+        const uint32_t x = level->wedges[i];
+        if (w->wedge_primitive[x] != p || w->wedge_index[x] >= n) continue;
+        const uint32_t at = new_of_old[w->wedge_index[x]];
+        const float *from = level->positions + 3 * (size_t)w->wedge_vertex[x];
+        if (memcmp(out + 3 * (size_t)at, from, 3 * sizeof *out) == 0) continue;
+        memcpy(out + 3 * (size_t)at, from, 3 * sizeof *out);
+        moved_count += !moved[at];
+        moved[at] = 1;
+    }
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < 3 * n; ++i) {
+        lo[i % 3] = fmin(lo[i % 3], out[i]);
+        hi[i % 3] = fmax(hi[i % 3], out[i]);
+    }
+    gltf_accessor acc;
+    const int sparse = gltf_get_accessor(doc, (size_t)base, &acc) == 0 && acc.buffer_view >= 0 &&
+                       acc.component_type == 5126 && acc.components == 3 && !acc.is_matrix && !acc.has_sparse &&
+                       acc.count == n;
+    int64_t data_view = -1, index_view_id = -1;
+    if (moved_count && sparse) {
+        uint32_t *indices = malloc((moved_count + 1) * sizeof *indices);
+        float *values = malloc((3 * moved_count + 1) * sizeof *values);
+        if (indices && values) {
+            size_t k = 0;
+            for (size_t i = 0; i < n; ++i) /* ascending, as the spec requires */
+                if (moved[i]) {
+                    indices[k] = (uint32_t)i;
+                    memcpy(values + 3 * k, out + 3 * i, 3 * sizeof *values);
+                    k++;
+                }
+            index_view_id = gltf_add_view(doc, indices, moved_count * sizeof *indices, 0, 0);
+            data_view = gltf_add_view(doc, values, 3 * moved_count * sizeof *values, 0, 0);
+            /* two accessors on one vertex bufferView need its byteStride;
+             * 12 is what a tightly packed float VEC3 view has implicitly */
+            char pointer[64];
+            snprintf(pointer, sizeof pointer, "/bufferViews/%lld/byteStride", (long long)acc.buffer_view);
+            char *stride = gltf_get_json(doc, pointer);
+            if (!stride && gltf_set_json(doc, pointer, "12") != 0) data_view = -1;
+            free(stride);
+        }
+        free(indices);
+        free(values);
+    } else if (moved_count) {
+        data_view = gltf_add_view(doc, out, 3 * n * sizeof *out, 0, 34962);
+    }
+    free(out);
+    free(moved);
+    if (!moved_count) return -2;
+    if (data_view < 0 || (sparse && index_view_id < 0)) return -1;
+    jsonw j = {0};
+    if (sparse)
+        jsonw_printf(&j, "{\"bufferView\":%lld,\"byteOffset\":%llu,", (long long)acc.buffer_view,
+                     (unsigned long long)acc.byte_offset);
+    else
+        jsonw_printf(&j, "{\"bufferView\":%lld,", (long long)data_view);
+    jsonw_printf(&j, "\"componentType\":5126,\"count\":%zu,\"type\":\"VEC3\",\"min\":[", n);
+    for (int c = 0; c < 3; ++c) {
+        if (c) jsonw_raw(&j, ",");
+        jsonw_number(&j, lo[c]);
+    }
+    jsonw_raw(&j, "],\"max\":[");
+    for (int c = 0; c < 3; ++c) {
+        if (c) jsonw_raw(&j, ",");
+        jsonw_number(&j, hi[c]);
+    }
+    jsonw_raw(&j, "]");
+    if (sparse)
+        jsonw_printf(&j,
+                     ",\"sparse\":{\"count\":%zu,\"indices\":{\"bufferView\":%lld,\"componentType\":5125},"
+                     "\"values\":{\"bufferView\":%lld}}",
+                     moved_count, (long long)index_view_id, (long long)data_view);
+    jsonw_raw(&j, "}");
+    int64_t a = j.failed ? -1 : gltf_append_json(doc, "accessors", j.text);
+    jsonw_free(&j);
+    return a;
+}
+
 static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, const simplify_level *level,
                                 uint32_t number, uint32_t *const *new_of_old, lp_error *err)
 {
@@ -280,6 +380,19 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
         char value[32];
         snprintf(value, sizeof value, "%lld", (long long)a);
         if (set_json(s->doc, err, value, "/meshes/%lld/primitives/%u/indices", (long long)lod, written)) return -1;
+        if (level->positions) {
+            gltf_primitive g;
+            int64_t base = -1;
+            gltf_get_primitive(s->doc, m, p, &g);
+            for (size_t at = 0; at < g.attribute_count; ++at)
+                if (strcmp(g.attributes[at].name, "POSITION") == 0) base = g.attributes[at].accessor;
+            int64_t moved = base < 0 ? -2 : level_positions(s->doc, pr, p, base, w, level, new_of_old[p]);
+            if (moved == -1) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+            snprintf(value, sizeof value, "%lld", (long long)moved);
+            if (moved >= 0 &&
+                set_json(s->doc, err, value, "/meshes/%lld/primitives/%u/attributes/POSITION", (long long)lod, written))
+                return -1;
+        }
         gltf_remove_jsonf(s->doc, "/meshes/%lld/primitives/%u/mode", (long long)lod, written); /* triangles */
         written++;
     }
@@ -484,6 +597,11 @@ int lodchain_mesh_triangles(const scene *s, uint32_t m, const weld_result *w, co
         if (pr->skipped || !pr->triangle_count) continue;
         base[p] = (uint32_t)v;
         memcpy(*positions + 3 * v, pr->positions, 3 * (size_t)pr->vertex_count * sizeof(float));
+        if (level && level->positions) /* where the level placed its vertices */
+            for (uint32_t x = 0; x < w->wedge_count; ++x)
+                if (w->wedge_primitive[x] == p && w->wedge_index[x] < pr->vertex_count)
+                    memcpy(*positions + 3 * (v + w->wedge_index[x]), level->positions + 3 * (size_t)w->wedge_vertex[x],
+                           3 * sizeof(float));
         if (t >= 0 && (uint32_t)t < pr->target_count) {
             gltf_primitive g;
             gltf_get_primitive(s->doc, m, p, &g);

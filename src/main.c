@@ -282,8 +282,11 @@ static int cmd_convert(const cli *c)
 /* The simplifier's options from the effective configuration. */
 static simplify_options simplify_options_of(const cli *c)
 {
+    uint32_t every = (uint32_t)((1ull << c->config.lod.level_count) - 1u);
+    uint32_t full_edge = 0;
+    if (c->config.lod.placement == 1) full_edge = c->config.lod.optimal_levels ? c->config.lod.optimal_levels & every : every;
     simplify_options opt = {c->levels, (uint32_t)c->config.lod.level_count, (uint32_t)c->config.run.threads,
-                            c->config.lod.flip_cos, 0, c->config.lod.strict_intersections};
+                            c->config.lod.flip_cos, 0, c->config.lod.strict_intersections, full_edge};
     const char *verify = getenv("LODPIPE_VERIFY");
     opt.verify = verify && strcmp(verify, "0") != 0;
     return opt;
@@ -318,18 +321,20 @@ static int write_bytes(const char *path, char *bytes, size_t size)
     return rc;
 }
 
-/* One level as OBJ: the mesh's welded vertices (shared by all levels) and the
- * level's faces. %.9g prints every float exactly. */
-static int write_obj(const char *path, const weld_result *w, const uint32_t *face_vertices, uint32_t face_count,
-                     const uint32_t *face_wedges)
+/* One level as OBJ: the mesh's welded vertices (shared by all levels; at
+ * `positions` when a level placed vertices, else the weld's) and the level's
+ * faces. %.9g prints every float exactly. */
+static int write_obj(const char *path, const weld_result *w, const float *positions, const uint32_t *face_vertices,
+                     uint32_t face_count, const uint32_t *face_wedges)
 {
     char *buf = NULL;
     size_t size = 0;
     FILE *f = open_memstream(&buf, &size);
     if (!f) return LP_IO;
+    if (!positions) positions = w->positions;
     for (uint32_t v = 0; v < w->vertex_count; ++v)
-        fprintf(f, "v %.9g %.9g %.9g\n", w->positions[3 * (size_t)v], w->positions[3 * (size_t)v + 1],
-                w->positions[3 * (size_t)v + 2]);
+        fprintf(f, "v %.9g %.9g %.9g\n", positions[3 * (size_t)v], positions[3 * (size_t)v + 1],
+                positions[3 * (size_t)v + 2]);
     for (uint32_t t = 0; t < face_count; ++t) {
         uint32_t a, b, c;
         if (face_vertices) {
@@ -404,10 +409,10 @@ static int cmd_simplify(const cli *c)
         }
         {
             snprintf(path, sizeof path, "%s/mesh%u_level0.obj", dir, m);
-            rc = write_obj(path, &w, w.triangle_vertices, w.triangle_count, NULL);
+            rc = write_obj(path, &w, NULL, w.triangle_vertices, w.triangle_count, NULL);
             for (uint32_t k = 0; k < r.level_count && !rc; ++k) {
                 snprintf(path, sizeof path, "%s/mesh%u_level%u.obj", dir, m, k + 1);
-                rc = write_obj(path, &w, NULL, r.levels[k].triangle_count, r.levels[k].wedges);
+                rc = write_obj(path, &w, r.levels[k].positions, NULL, r.levels[k].triangle_count, r.levels[k].wedges);
             }
             fprintf(j, "%s{\"mesh\":%u,\"name\":", first ? "" : ",", m);
             json_string(j, mesh->name);

@@ -19,5 +19,11 @@ void quadric_from_plane(quadric *q, const double n[3], double d, double w);
 void quadric_add(quadric *into, const quadric *q);
 /* Weighted sum of squared distances of p to the planes (>= 0). */
 double quadric_error(const quadric *q, const double p[3]);
+/* The point on segment [a, b] with the smallest error, in *out. */
+void quadric_segment_minimizer(const quadric *q, const double a[3], const double b[3], double out[3]);
+/* The point with the smallest error (A x = -b) in *out, when A is well
+ * conditioned: returns 1, else 0 and leaves *out alone (a flat or a
+ * cylindrical neighbourhood has a line or plane of minimizers). */
+int quadric_minimizer(const quadric *q, double out[3]);
 
 #endif

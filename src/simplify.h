@@ -36,6 +36,7 @@ typedef struct simplify_options {
     double flip_cos;          /* reject when a changed face's normal turns to cos <= this (0.25) */
     int verify;               /* re-check the invariants after every commit (slow) */
     int strict_intersections; /* self-intersection test everywhere, not only where the original is thin */
+    uint32_t full_edge_levels;/* bit k: level k may use full-edge placement (0: half-edge only) */
 } simplify_options;
 
 enum {
@@ -64,6 +65,10 @@ typedef struct simplify_level {
     uint32_t triangle_count;
     uint32_t *wedges;           /* 3 weld wedges per triangle */
     uint32_t *primitive;        /* per triangle: index into the mesh's primitives */
+    /* NULL while every vertex is where the weld put it; else, once a level
+     * with full-edge placement has moved a vertex, this level's position of
+     * every weld vertex (3 floats each; the certificate used exactly these) */
+    float *positions;
     simplify_stats stats;
 } simplify_level;
 

@@ -46,7 +46,7 @@ import {
 import {
   CHAIN_ASPECTS, DEFAULT_CAMERA, DEFAULT_LADDER, HAUSDORFF, analyzeChain, dropRuleProblems, edgeCensus, expectedSwitching,
   fileSetBytes, fmt, formatProblems, hausdorffAvailable, isTrianglePrim, matchLadder, maxColumnScale, newValidatorErrorMessages,
-  prefixProblems, rawPrimGeometry, relClose, worldMatrices,
+  prefixProblems, primTriangles, rawPrimGeometry, relClose, worldMatrices,
 } from './lib/lodcheck.mjs';
 import { FIXTURE_DIAGONAL, TENT_H, buildFixture, setRecordedTriangles, writeFixture } from './lib/lodfixture.mjs';
 
@@ -361,6 +361,73 @@ for (const [rel, levels] of [['scenes/Duck.glb', [0.5, 2, 10, 40]], ['scans/cow.
     await assertAspects(t, res, `${rel} --levels ${levels}`, ['summary', 'eps', 'chain', 'soundness', 'switching', 'prefix', 'lodprims']);
   });
 }
+
+// lod.placement = "optimal" (issue 3): full-edge collapses may place the kept vertex. The whole chain
+// checker runs as for the default (CGAL-proven bounds, validator, nothing else changed, death order), with
+// one rule relaxed: a level that placed vertices has its own POSITION accessor (float VEC3, the original's
+// count, sparse over the original's data); every other attribute stays the original's. Also: vertices were
+// really placed (the triangle totals against the default run are printed: bench/RESULTS.md measures the
+// gain; a greedy simplifier promises none per asset), and with --optimal-levels 3,4 the first two levels
+// are the default run's (the original POSITION accessor, the same triangles by position: the vertex order
+// itself follows the later levels, so indices may differ).
+for (const rel of ['scans/bunny.glb', 'animated/CesiumMan.glb', 'compressed/DenseSphere.glb', 'assets/default_scene.glb']) {
+  test(`--placement optimal on ${rel}: certified chain, levels place vertices`, { skip: skipRuns || hausdorffSkip }, async (t) => {
+    const input = rel.startsWith('assets/') ? DEFAULT_SCENE : corpusPath(rel);
+    const run = mainJob(input, '.glb', ['--placement', 'optimal'], { tag: 'optimal' });
+    assert.deepEqual(runFatal(run), [], `the main job failed\n${describeRun(run.r)}`);
+    const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary, placement: 'optimal' });
+    const half = mainJob(input, '.glb', [], {});
+    assert.deepEqual(runFatal(half), [], `the default run failed\n${describeRun(half.r)}`);
+    const total = (sum) => (sum?.meshes || []).reduce((x, m) => x + m.levels.reduce((y, l) => y + l.triangles, 0), 0);
+    t.diagnostic(`${rel}: triangles over all levels: placed ${total(run.summary)}, half-edge ${total(half.summary)}; ` +
+      `${res.stats.placedPrimitives || 0} level primitive(s) carry placed positions`);
+    await t.test('vertices were placed', () => assert.ok((res.stats.placedPrimitives || 0) > 0, 'no level placed a vertex'));
+    await assertAspects(t, res, `${rel} --placement optimal`);
+  });
+}
+
+test('--placement optimal --optimal-levels 3,4: levels 1 and 2 are the default run\'s', { skip: skipRuns || hausdorffSkip }, async (t) => {
+  const input = corpusPath('scans/bunny.glb');
+  const run = mainJob(input, '.glb', ['--placement', 'optimal', '--optimal-levels', '3,4'], { tag: 'optimal34' });
+  const half = mainJob(input, '.glb', [], {});
+  assert.deepEqual([...runFatal(run), ...runFatal(half)], [], `a run failed\n${describeRun(run.r)}\n${describeRun(half.r)}`);
+  const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary, placement: 'optimal' });
+  await assertAspects(t, res, 'bunny --optimal-levels 3,4');
+  await t.test('levels 1-2 equal the default run, levels 3-4 placed vertices', () => {
+    const a = readRaw(run.out);
+    const b = readRaw(half.out);
+    const lods = (raw) => raw.json.nodes[0].extensions.MSFT_lod.ids.map((id) => raw.json.nodes[id].mesh);
+    const la = lods(a);
+    const lb = lods(b);
+    const p = [];
+    const prim = (raw, m) => raw.json.meshes[m].primitives[0];
+    // oriented triangles as position triples, each rotated to start at its smallest corner, sorted
+    const triangleSet = (raw, m) => {
+      const g = rawPrimGeometry(raw, m, 0);
+      const pos = g.attrs.POSITION;
+      const corner = (v) => Array.from(pos.array.slice(v * pos.size, v * pos.size + 3)).join(',');
+      const t = primTriangles(g);
+      const out = [];
+      for (let i = 0; i < t.length; i += 3) {
+        const c = [corner(t[i]), corner(t[i + 1]), corner(t[i + 2])];
+        let r = 0;
+        for (let q = 1; q < 3; q++) if (c[q] < c[r]) r = q;
+        out.push([c[r], c[(r + 1) % 3], c[(r + 2) % 3]].join(' '));
+      }
+      return out.sort();
+    };
+    for (const k of [0, 1]) {
+      const pa = prim(a, la[k]);
+      if (pa.attributes.POSITION !== prim(a, 0).attributes.POSITION) p.push(`LOD ${k + 1} does not use the original POSITION`);
+      const ta = triangleSet(a, la[k]);
+      const tb = triangleSet(b, lb[k]);
+      if (ta.length !== tb.length || ta.some((x, q) => x !== tb[q])) p.push(`LOD ${k + 1}: ${ta.length} triangles, the default run's ${tb.length}: not the same triangles`);
+    }
+    const placed = [2, 3].filter((k) => prim(a, la[k]).attributes.POSITION !== prim(a, 0).attributes.POSITION);
+    if (!placed.length) p.push('neither LOD 3 nor LOD 4 placed a vertex');
+    assert.deepEqual(p, [], p.join('\n'));
+  });
+});
 
 // ---------------------------------------------------------------------------------------------
 // Must show 2: switching metadata, non-default cameras, instances at several scales

@@ -607,13 +607,15 @@ export function deathOrderProblems(levelGeoms, g, label) {
     return k;
   };
   levelGeoms.forEach((geoms, k) => {
-    for (const h of geoms) {
-      const pos = h.attrs.POSITION;
+    geoms.forEach((h, i) => {
+      // vertex v of a level is vertex v of level 0 (same vertex buffers): keyed by its level-0 position, so a
+      // level that placed vertices elsewhere (lod.placement = "optimal") is ordered by the same rule
+      const pos = (levelGeoms[0][i] || h).attrs.POSITION;
       for (const v of primTriangles(h)) {
         const q = key(pos, v);
         if (!((death.get(q) ?? -1) >= k)) death.set(q, k);
       }
-    }
+    });
   });
   const pos = g.attrs.POSITION;
   let inversions = 0;
@@ -753,7 +755,7 @@ export function foldCarriers(j, jin, nInNodes, notes) {
   return carriers;
 }
 
-export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_LADDER, camera = DEFAULT_CAMERA, hausdorff = true, minReduction = MIN_REDUCTION }) {
+export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_LADDER, camera = DEFAULT_CAMERA, hausdorff = true, minReduction = MIN_REDUCTION, placement = 'half-edge' }) {
   const problems = Object.fromEntries(CHAIN_ASPECTS.map(([k]) => [k, []]));
   const notes = [];
   const stats = { levels: [], hausdorffSeconds: 0 };
@@ -1067,7 +1069,19 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
           if (!deepEqual(lp, op)) P('lodprims', `${pt}: the original's ${modeOf(op) < 4 ? 'points/lines' : 'non-geometry'} primitive must be copied as it is: ${JSON.stringify(lp)} vs ${JSON.stringify(op)}`);
           return;
         }
-        if (!deepEqual(lp.attributes, op.attributes)) P('lodprims', `${pt}: attributes ${JSON.stringify(lp.attributes)}, the original's are ${JSON.stringify(op.attributes)}`);
+        if (!deepEqual(lp.attributes, op.attributes)) {
+          // lod.placement = "optimal": a level that placed vertices has its own POSITION accessor, a new float
+          // VEC3 one of the same count, sparse over the original's data (or, for non-float originals, whole);
+          // every other attribute is the original's
+          const others = (a) => Object.fromEntries(Object.entries(a || {}).filter(([name]) => name !== 'POSITION'));
+          const pa = j.accessors?.[lp.attributes?.POSITION];
+          const oa = j.accessors?.[op.attributes?.POSITION];
+          const placed = placement === 'optimal' && deepEqual(others(lp.attributes), others(op.attributes)) && pa && oa &&
+            lp.attributes.POSITION >= nInAcc && pa.componentType === 5126 && pa.type === 'VEC3' && pa.count === oa.count &&
+            (!pa.sparse || (pa.bufferView === oa.bufferView && (pa.byteOffset || 0) === (oa.byteOffset || 0) && !oa.sparse));
+          if (placed) stats.placedPrimitives = (stats.placedPrimitives || 0) + 1;
+          else P('lodprims', `${pt}: attributes ${JSON.stringify(lp.attributes)}, the original's are ${JSON.stringify(op.attributes)}`);
+        }
         if (!deepEqual(lp.targets, op.targets)) P('lodprims', `${pt}: targets ${JSON.stringify(lp.targets)}, the original's are ${JSON.stringify(op.targets)}`);
         if (lp.material !== op.material) P('lodprims', `${pt}: material ${lp.material}, the original's is ${op.material}`);
         const strip = (x) => {

@@ -99,6 +99,8 @@ static void test_repo_file_equals_defaults(void)
     c.lod.levels[1] = c.lod.levels[2] = c.lod.levels[3] = 0;
     c.lod.min_reduction = 0.5;
     c.lod.flip_cos = 0;
+    c.lod.placement = 1;
+    c.lod.optimal_levels = 0x5;
     c.switching.pixel_error = 3;
     c.switching.viewport_height = 720;
     c.switching.fov_y = 1;
@@ -225,6 +227,8 @@ static void e_levels(lp_config *c)
     c->lod.levels[3] = 0;
 }
 static void e_min_reduction(lp_config *c) { c->lod.min_reduction = 0; }
+static void e_placement(lp_config *c) { c->lod.placement = 1; }
+static void e_optimal_levels(lp_config *c) { c->lod.optimal_levels = (1u << 2) | (1u << 3) | (1u << 15); }
 static void e_flip_cos(lp_config *c) { c->lod.flip_cos = -1; }
 static void e_pixel_error(lp_config *c) { c->switching.pixel_error = 2; }
 static void e_viewport_height(lp_config *c) { c->switching.viewport_height = 2160.5; }
@@ -242,6 +246,8 @@ static void e_fallback(lp_config *c) { c->draco.fallback = 1; }
 static const override_case kOverrides[] = {
     {"[lod]\nlevels = [0.5, 2, 100]\n", e_levels},
     {"[lod]\nmin_reduction = 0\n", e_min_reduction},
+    {"[lod]\nplacement = \"optimal\"\n", e_placement},
+    {"[lod]\noptimal_levels = [4, 3, 16, 3]\n", e_optimal_levels}, /* a set: order and repeats do not matter */
     {"[lod]\nflip_cos = -1.0\n", e_flip_cos},
     {"[switching]\npixel_error = 2\n", e_pixel_error},
     {"[switching]\nviewport_height = 2160.5\n", e_viewport_height},
@@ -316,7 +322,13 @@ typedef struct error_case {
 
 static const error_case kErrors[] = {
     /* unknown key, unknown table */
-    {"[lod]\nlevels = [1]\nlevel = 3\n", LP_USAGE, 3, ": lod.level: unknown key (known in [lod]: levels, min_reduction, flip_cos, strict_intersections)"},
+    {"[lod]\nlevels = [1]\nlevel = 3\n", LP_USAGE, 3, ": lod.level: unknown key (known in [lod]: levels, min_reduction, flip_cos, strict_intersections, placement, optimal_levels)"},
+    {"[lod]\nplacement = \"best\"\n", LP_USAGE, 2, ": lod.placement: must be \"half-edge\" or \"optimal\", got \"best\""},
+    {"[lod]\nplacement = 1\n", LP_USAGE, 2, ": lod.placement: must be a string (\"half-edge\" or \"optimal\"), not an integer"},
+    {"[lod]\noptimal_levels = 3\n", LP_USAGE, 2, ": lod.optimal_levels: must be an array of level numbers in 1..16, not an integer"},
+    {"[lod]\noptimal_levels = [0]\n", LP_USAGE, 2, ": lod.optimal_levels: must list level numbers in 1..16, got 0"},
+    {"[lod]\noptimal_levels = [17]\n", LP_USAGE, 2, ": lod.optimal_levels: must list level numbers in 1..16, got 17"},
+    {"[lod]\noptimal_levels = [2.5]\n", LP_USAGE, 2, ": lod.optimal_levels: value 1 must be an integer level number, not a float"},
     {"threads = 4\n", LP_USAGE, 1, ": threads: unknown key; did you mean run.threads?"},
     {"[draco]\nbits = 4\n", LP_USAGE, 2, ": draco.bits: unknown key"},
     {"\n[lods]\nlevels = [1]\n", LP_USAGE, 2, ": lods: unknown table"},
@@ -439,6 +451,7 @@ static void test_flags(void)
               config_flag("--threads") == 1,
           "value flags");
     CHECK(config_flag("--draco") == 2, "switch");
+    CHECK(config_flag("--placement") == 1 && config_flag("--optimal-levels") == 1, "placement flags");
     CHECK(config_flag("--config") == 0 && config_flag("--quiet") == 0 &&
               config_flag("lod.levels") == 0 && config_flag("--flip-cos") == 0,
           "not config flags");
@@ -461,6 +474,10 @@ static void test_flags(void)
     CHECK(config_set(&c, "--threads", "8", &err) == LP_OK && c.run.threads == 8, "threads");
     CHECK(config_set(&c, "--threads", "0", &err) == LP_OK && c.run.threads == 0, "threads 0");
     CHECK(config_set(&c, "--draco", "true", &err) == LP_OK && c.draco.enabled == 1, "draco");
+    CHECK(config_set(&c, "--placement", "optimal", &err) == LP_OK && c.lod.placement == 1, "placement");
+    CHECK(config_set(&c, "--placement", "half-edge", &err) == LP_OK && c.lod.placement == 0, "placement back");
+    CHECK(config_set(&c, "--optimal-levels", "3, 4", &err) == LP_OK && c.lod.optimal_levels == 0xc, "optimal levels");
+    CHECK(config_set(&c, "lod.optimal_levels", "", &err) == LP_OK && c.lod.optimal_levels == 0, "no optimal levels");
     /* Every key by its dotted name. */
     CHECK(config_set(&c, "lod.min_reduction", "0", &err) == LP_OK && c.lod.min_reduction == 0,
           "min_reduction");
@@ -522,6 +539,10 @@ static const flag_error kFlagErrors[] = {
     {"--threads", "2.5", "--threads 2.5: must be an integer in 0..64 (0 = one per core)"},
     {"--threads", "99999999999999999999", "--threads 99999999999999999999: must be an integer in 0..64 (0 = one per core)"},
     {"--draco", "yes", "--draco yes: must be true or false"},
+    {"--placement", "Optimal", "--placement Optimal: must be \"half-edge\" or \"optimal\", got \"Optimal\""},
+    {"--optimal-levels", "3;4", "--optimal-levels 3;4: expected comma-separated level numbers, e.g. 3,4"},
+    {"--optimal-levels", "0", "--optimal-levels 0: must list level numbers in 1..16, got 0"},
+    {"--optimal-levels", "1.5", "--optimal-levels 1.5: must list level numbers in 1..16, got 1.5"},
     {"draco.normal_bits", "1", "draco.normal_bits 1: must be in 2..30, got 1"},
     {"draco.speed", "11", "draco.speed 11: must be in 0..10, got 11"},
     {"lod.min_reduction", "1", "lod.min_reduction 1: must be in [0, 1), got 1"},
@@ -552,6 +573,8 @@ static const char kDefaultToml[] =
     "min_reduction = 0.1\n"
     "flip_cos = 0.25\n"
     "strict_intersections = false\n"
+    "placement = \"half-edge\"\n"
+    "optimal_levels = []\n"
     "\n"
     "[switching]\n"
     "pixel_error = 1\n"
@@ -572,7 +595,7 @@ static const char kDefaultToml[] =
     "fallback = false\n";
 
 static const char kDefaultJson[] =
-    "{\"lod\":{\"levels\":[1, 3, 7, 15],\"min_reduction\":0.1,\"flip_cos\":0.25,\"strict_intersections\":false},"
+    "{\"lod\":{\"levels\":[1, 3, 7, 15],\"min_reduction\":0.1,\"flip_cos\":0.25,\"strict_intersections\":false,\"placement\":\"half-edge\",\"optimal_levels\":[]},"
     "\"switching\":{\"pixel_error\":1,\"viewport_height\":1080,\"fov_y\":0.7853981633974483},"
     "\"run\":{\"threads\":0},"
     "\"draco\":{\"enabled\":false,\"position_bits\":14,\"normal_bits\":10,\"texcoord_bits\":12,"
@@ -598,6 +621,7 @@ static void test_canonical_text_of_defaults(void)
 static const char *const kChanges[][2] = {
     {"lod.levels", "1,3,7"},          {"lod.levels", "1,3,7,15.000000000000002"},
     {"lod.min_reduction", "0.10000000000000002"}, {"lod.flip_cos", "0.3"},
+    {"lod.placement", "optimal"},     {"lod.optimal_levels", "16"},
     {"switching.pixel_error", "1.5"}, {"switching.viewport_height", "1081"},
     {"switching.fov_y", "0.78539816339744839"},   {"run.threads", "1"},
     {"draco.enabled", "true"},        {"draco.position_bits", "15"},

@@ -139,6 +139,9 @@ static double now(void)
     return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
+/* simplify_options.full_edge_levels for the next run_simplify calls */
+static uint32_t g_full_edge_levels;
+
 /* Welds m (one primitive, material 0, positions only) and simplifies it
  * through fractions[0..count-1]. Returns the simplify_mesh result code. */
 static int run_simplify(run *rn, const mesh *m, const double *fractions, uint32_t count, uint32_t threads, int verify)
@@ -185,14 +188,15 @@ static int run_simplify(run *rn, const mesh *m, const double *fractions, uint32_
     o.threads = threads;
     o.flip_cos = 0.25;
     o.verify = verify;
+    o.full_edge_levels = g_full_edge_levels;
     int64_t material[2] = {rn->prim[0].material, rn->prim[1].material};
     double t0 = now();
     rc = simplify_mesh(&rn->w, material, &o, &rn->r, &err);
     rn->seconds = now() - t0;
     CHECK(rc == LP_OK, "simplify_mesh: rc %d: %s", rc, err.msg);
     if (rc == LP_OK) rn->simplified = 1;
-    printf("#   simplify_mesh: %u triangles, %u levels, %u threads, verify %d: %.2f s\n", m->nt, count, threads, verify,
-           rn->seconds);
+    printf("#   simplify_mesh: %u triangles, %u levels, %u threads, verify %d, full-edge levels 0x%x: %.2f s\n", m->nt,
+           count, threads, verify, g_full_edge_levels, rn->seconds);
     fflush(stdout);
     return rc;
 }
@@ -429,13 +433,21 @@ static vec3d (*original_tris(const run *rn))[3]
     return t;
 }
 
+/* Where level k has position vertex v: its own positions when it placed
+ * vertices (full-edge placement), else the weld's. */
+static vec3d level_point(const run *rn, uint32_t k, uint32_t v)
+{
+    const float *p = rn->r.levels[k].positions;
+    return p ? geom_vec3d_from_floats(p + 3 * (size_t)v) : weld_point(&rn->w, v);
+}
+
 static vec3d (*level_tris(const run *rn, uint32_t k))[3]
 {
     const simplify_level *L = &rn->r.levels[k];
     vec3d (*t)[3] = malloc(((size_t)L->triangle_count + 1) * sizeof *t);
     if (!t) abort();
     for (uint32_t f = 0; f < L->triangle_count; ++f)
-        for (int c = 0; c < 3; ++c) t[f][c] = weld_point(&rn->w, level_vertex(rn, k, f, c));
+        for (int c = 0; c < 3; ++c) t[f][c] = level_point(rn, k, level_vertex(rn, k, f, c));
     return t;
 }
 
@@ -1444,6 +1456,9 @@ static int same_result(const run *x, const run *y, char *why, size_t n)
             return snprintf(why, n, "level %u: primitives differ", k), 0;
         if (memcmp(&a->bound, &b->bound, sizeof a->bound))
             return snprintf(why, n, "level %u: bound %.17g vs %.17g", k, a->bound, b->bound), 0;
+        if (!a->positions != !b->positions ||
+            (a->positions && memcmp(a->positions, b->positions, 3 * (size_t)x->w.vertex_count * sizeof *a->positions)))
+            return snprintf(why, n, "level %u: placed positions differ", k), 0;
         if (a->stats.commits != b->stats.commits)
             return snprintf(why, n, "level %u: %llu vs %llu commits", k, (unsigned long long)a->stats.commits,
                             (unsigned long long)b->stats.commits), 0;
@@ -1530,6 +1545,104 @@ static void test_verify_mode(void)
     mesh_free(&m);
 }
 
+/* ---- full-edge placement (lod.placement = "optimal") --------------------------- */
+
+/* Vertices level k uses at a position other than the weld's. */
+static uint32_t placed_vertices(const run *rn, uint32_t k)
+{
+    const simplify_level *L = &rn->r.levels[k];
+    if (!L->positions) return 0;
+    uint32_t n = 0;
+    for (uint32_t v = 0; v < rn->w.vertex_count; ++v)
+        n += level_has_vertex(rn, k, v) && memcmp(L->positions + 3 * (size_t)v, rn->w.positions + 3 * (size_t)v,
+                                                   3 * sizeof(float)) != 0;
+    return n;
+}
+
+/* Every level with placement allowed: sampled two-sided distance <= bound <=
+ * eps on the placed positions, topology and structure as with half-edge
+ * collapses, vertices really placed, no more triangles in total than the
+ * half-edge run, the same result for 1, 2 and 8 threads and with the
+ * invariant checker on. Placement on levels 3 and 4 only: levels 1 and 2 are
+ * exactly the half-edge run's and carry no positions. */
+static void test_optimal_placement(void)
+{
+    mesh m;
+    mesh_init(&m);
+    build_icosphere(&m, 4, geom_vec3d(0, 0, 0));
+    run half, full, full2, full8, verified;
+    g_full_edge_levels = 0;
+    int ok = run_simplify(&half, &m, default_ladder, 4, 2, 0) == LP_OK;
+    g_full_edge_levels = 0xf;
+    ok &= run_simplify(&full, &m, default_ladder, 4, 1, 0) == LP_OK;
+    ok &= run_simplify(&full2, &m, default_ladder, 4, 2, 0) == LP_OK;
+    ok &= run_simplify(&full8, &m, default_ladder, 4, 8, 0) == LP_OK;
+    ok &= run_simplify(&verified, &m, default_ladder, 4, 2, 1) == LP_OK;
+    if (ok) {
+        char why[200];
+        check_structure("placed sphere", &full);
+        check_topology("placed sphere", &full, 2, 0);
+        check_levels("placed sphere", &full, 8);
+        uint32_t sum_half = 0, sum_full = 0, placed = 0;
+        for (uint32_t k = 0; k < 4; ++k) {
+            sum_half += half.r.levels[k].triangle_count;
+            sum_full += full.r.levels[k].triangle_count;
+            placed += placed_vertices(&full, k);
+            CHECK(full.r.levels[k].positions != NULL, "level %u carries positions", k);
+            printf("#   level %u: half-edge %u triangles, placed %u triangles (%u vertices placed)\n", k,
+                   half.r.levels[k].triangle_count, full.r.levels[k].triangle_count, placed_vertices(&full, k));
+        }
+        CHECK(placed > 0, "placement moved no vertex");
+        CHECK(sum_full <= sum_half, "placement gave more triangles: %u > %u", sum_full, sum_half);
+        CHECK(same_result(&full, &full2, why, sizeof why), "placed, 1 vs 2 threads: %s", why);
+        CHECK(same_result(&full, &full8, why, sizeof why), "placed, 1 vs 8 threads: %s", why);
+        CHECK(same_result(&full2, &verified, why, sizeof why), "placed, verify changes the result: %s", why);
+    }
+    run_free(&full);
+    run_free(&full2);
+    run_free(&full8);
+    run_free(&verified);
+    g_full_edge_levels = 0xc; /* levels 3 and 4 */
+    if (run_simplify(&full, &m, default_ladder, 4, 2, 1) == LP_OK && ok) {
+        /* vertex_death differs (later levels differ), so compare the levels alone */
+        int same = 1;
+        for (uint32_t k = 0; k < 2; ++k)
+            same &= full.r.levels[k].triangle_count == half.r.levels[k].triangle_count &&
+                    memcmp(full.r.levels[k].wedges, half.r.levels[k].wedges,
+                           3 * (size_t)half.r.levels[k].triangle_count * sizeof(uint32_t)) == 0 &&
+                    full.r.levels[k].positions == NULL;
+        CHECK(same, "levels 1 and 2 without placement equal the half-edge run's");
+        CHECK(full.r.levels[2].positions != NULL && placed_vertices(&full, 2) + placed_vertices(&full, 3) > 0,
+              "levels 3 and 4 placed vertices");
+        check_levels("placed levels 3-4", &full, 8);
+        check_topology("placed levels 3-4", &full, 2, 0);
+    }
+    g_full_edge_levels = 0;
+    run_free(&full);
+    run_free(&half);
+    mesh_free(&m);
+
+    /* an open, bumpy sheet with a border: border vertices never move */
+    mesh_init(&m);
+    spike_ctx sc = {10, 10, 29, 27, 0.15};
+    mesh_grid(&m, 24, 24, 0, 1, 0, 1, spike_height, &sc);
+    g_full_edge_levels = 0xf;
+    if (run_simplify(&full, &m, default_ladder, 4, 2, 1) == LP_OK) {
+        check_levels("placed sheet", &full, 8);
+        check_structure("placed sheet", &full);
+        int border_kept = 1;
+        for (uint32_t k = 0; k < 4; ++k)
+            for (uint32_t v = 0; full.r.levels[k].positions && v < full.w.vertex_count; ++v)
+                if (full.w.vertex_kind[v] != WELD_MANIFOLD &&
+                    memcmp(full.r.levels[k].positions + 3 * (size_t)v, full.w.positions + 3 * (size_t)v, 3 * sizeof(float)))
+                    border_kept = 0;
+        CHECK(border_kept, "a border vertex was placed");
+    }
+    g_full_edge_levels = 0;
+    run_free(&full);
+    mesh_free(&m);
+}
+
 int main(void)
 {
     RUN(test_spike_and_pit);
@@ -1542,5 +1655,6 @@ int main(void)
     RUN(test_translated_1e5);
     RUN(test_thread_count_invariance);
     RUN(test_verify_mode);
+    RUN(test_optimal_placement);
     return check_summary();
 }
