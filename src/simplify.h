@@ -18,7 +18,15 @@
  * strict mode, DESIGN.md §5); ordered by a position quadric; evaluated in batches whose
  * neighbourhoods are disjoint, certified in parallel and committed in a fixed
  * order, so the result does not depend on the thread count. A rejected
- * candidate is retried only after its neighbourhood changes. */
+ * candidate is retried only after its neighbourhood changes.
+ *
+ * Full-edge placement (options.full_edge_levels): on those levels, when the
+ * half-edge collapse of an edge between two interior vertices of one wedge
+ * class is not certified, it is tried once more with v moved to the
+ * quadric's minimizer (float32, as written); the faces around u and v are
+ * then all changed faces, tested and certified the same way. Such levels,
+ * and every later one, carry their vertex positions (simplify_level.
+ * positions); v keeps its attributes. */
 #ifndef LODPIPE_SIMPLIFY_H
 #define LODPIPE_SIMPLIFY_H
 

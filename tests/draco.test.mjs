@@ -304,12 +304,19 @@ const inputs = [
   ...manifestInputs((f) => f.category !== 'invalid').map((f) => ({ rel: f.path, file: corpusPath(f.path), triangles: f.stats?.triangle_count || 0 })),
 ].filter((i) => !ONLY.length || ONLY.some((s) => i.rel.includes(s)));
 
-for (const input of inputs) {
-  test(`--draco: ${input.rel}`, { skip }, async (t) => {
+// every input with the defaults; two with lod.placement = "optimal" (levels that placed vertices encode
+// their own positions: the quantization grid and bound follow the placed vertices)
+const PLACED = ['default_scene.glb', 'scans/cow.glb'];
+const draco_runs = [
+  ...inputs.map((input) => ({ input, extra: [], label: '' })),
+  ...inputs.filter((i) => PLACED.some((s) => i.rel.includes(s))).map((input) => ({ input, extra: ['--placement', 'optimal'], label: ' --placement optimal' })),
+];
+for (const { input, extra, label } of draco_runs) {
+  test(`--draco: ${input.rel}${label}`, { skip }, async (t) => {
     const wd = fs.mkdtempSync(path.join(workDir(), 'a-'));
     const out = path.join(wd, 'D.glb');
     const ref = path.join(wd, 'R.glb');
-    const r = run([input.file, '-o', out, '--draco', '--json', '-q'], { triangles: input.triangles, env: { LODPIPE_DRACO_REFERENCE: ref } });
+    const r = run([input.file, '-o', out, '--draco', '--json', '-q', ...extra], { triangles: input.triangles, env: { LODPIPE_DRACO_REFERENCE: ref } });
     assert.equal(r.status, 0, describeRun(r));
     const summary = JSON.parse(r.stdout);
     const rawD = readRaw(out);

@@ -689,8 +689,8 @@ const assets = [
 const skipCorpus = simplifySkipReason();
 
 /** Run simplify with the binary under test, or the plain build for big assets when LODPIPE_BIN_FAST is set. */
-function runSimplify(asset, outDir) {
-  const args = ['simplify', asset.file, outDir];
+function runSimplify(asset, outDir, extra = []) {
+  const args = ['simplify', asset.file, outDir, ...extra];
   if (!(FAST_BIN && asset.triangles >= FAST_MIN_TRIANGLES)) return { ...runLodpipe(args, { timeout: SIMPLIFY_TIMEOUT_MS }), bin: lodpipeBin };
   // same shape as runLodpipe's result, other binary
   const t0 = Date.now();
@@ -701,12 +701,19 @@ function runSimplify(asset, outDir) {
   };
 }
 
-for (const asset of assets) {
+// Every asset with the defaults (half-edge collapses); a few with lod.placement = "optimal" (full-edge
+// collapses may place the kept vertex: the level OBJs then carry the placed positions), through the same checks.
+const PLACED = ['scans/cow.glb', 'scans/fandisk.glb', 'scans/suzanne.glb', 'scenes/Duck.glb', 'default_scene.glb'];
+const runsToCheck = [
+  ...assets.map((asset) => ({ asset, extra: [], label: '' })),
+  ...assets.filter((a) => PLACED.some((s) => a.rel.includes(s))).map((asset) => ({ asset, extra: ['--placement', 'optimal'], label: ' --placement optimal' })),
+];
+for (const { asset, extra, label } of runsToCheck) {
   const only = ONLY.length && !ONLY.some((s) => asset.rel.includes(s));
-  test(`simplify ${asset.rel}: sound, bounded, monotone, topology kept`, { skip: skipCorpus || (only ? 'not in LODPIPE_SIMPLIFY_ONLY' : false) }, async (t) => {
+  test(`simplify ${asset.rel}${label}: sound, bounded, monotone, topology kept`, { skip: skipCorpus || (only ? 'not in LODPIPE_SIMPLIFY_ONLY' : false) }, async (t) => {
     if (hausdorffSkip) assert.fail(`${hausdorffSkip}: soundness cannot be checked`);
     const outDir = tempDir(t, 'lodpipe-simplify-');
-    const r = runSimplify(asset, outDir);
+    const r = runSimplify(asset, outDir, extra);
     t.diagnostic(`${asset.rel}: simplify took ${(r.ms / 1000).toFixed(1)} s with ${r.bin === lodpipeBin ? 'LODPIPE_BIN' : 'LODPIPE_BIN_FAST'}`);
     const fatal = runHealthProblems(r);
     if (r.status !== 0) fatal.push(`exit status ${r.status} (expected 0)`);
@@ -743,13 +750,14 @@ for (const asset of assets) {
 // (fandisk, --levels 0.0625,1); an exit 3 here is a broken promise, not a flaky test.
 
 const VERIFY_RUNS = [
-  { rel: 'scans/cow.glb', levels: '0.03125,0.0625,0.25,1,3,7,15' },
-  { rel: 'scans/fandisk.glb', levels: '0.0625,1,3,7,15' }, // the ladder that exposed the overlay's false certificate
+  { rel: 'scans/cow.glb', levels: '0.03125,0.0625,0.25,1,3,7,15', extra: [] },
+  { rel: 'scans/fandisk.glb', levels: '0.0625,1,3,7,15', extra: [] }, // the ladder that exposed the overlay's false certificate
+  { rel: 'scans/fandisk.glb', levels: '0.0625,1,3,7,15', extra: ['--placement', 'optimal'] },
 ];
-for (const { rel, levels } of VERIFY_RUNS) {
-  test(`LODPIPE_VERIFY=1: every invariant holds after every commit on ${rel} (levels ${levels} %)`, { skip: skipCorpus }, (t) => {
+for (const { rel, levels, extra } of VERIFY_RUNS) {
+  test(`LODPIPE_VERIFY=1: every invariant holds after every commit on ${rel} (levels ${levels} %) ${extra.join(' ')}`, { skip: skipCorpus }, (t) => {
     const out = tempDir(t, 'lodpipe-verify-');
-    const r = runLodpipe(['simplify', corpusPath(rel), out, '--levels', levels], {
+    const r = runLodpipe(['simplify', corpusPath(rel), out, '--levels', levels, ...extra], {
       env: { LODPIPE_VERIFY: '1' }, timeout: SIMPLIFY_TIMEOUT_MS,
     });
     t.diagnostic(`${rel}: ${r.ms} ms with the invariant checker`);
