@@ -182,10 +182,10 @@ class Tools:
         return last_json(p.stdout)
 
     # -- lodpipe
-    def lodpipe_simplify(self, glb, outdir, pcts, label="lodpipe simplify"):
+    def lodpipe_simplify(self, glb, outdir, pcts, label="lodpipe simplify", extra=()):
         shutil.rmtree(outdir, ignore_errors=True)
         os.makedirs(outdir)
-        cmd = [self.lodpipe, "simplify", glb, outdir, "--levels", ",".join(fmt_pct(p) for p in pcts)]
+        cmd = [self.lodpipe, "simplify", glb, outdir, "--levels", ",".join(fmt_pct(p) for p in pcts)] + list(extra)
         rc, out, err, wall, user, sys_, rss = run_rusage(cmd, label)
         res = {"rc": rc, "wall": wall, "user": user, "sys": sys_, "maxrss": rss,
                "stderr": err.strip()[-800:], "levels": []}
@@ -306,23 +306,29 @@ def quality(tools, model, args, have_lodpipe):
     t_model = time.monotonic()
     outroot = os.path.join(WORK, "q_" + model)
 
-    # lodpipe single levels
+    # lodpipe single levels: the default (half-edge) and lod.placement = "optimal"
     lp_single = []
     for pct in EPS_PCT:
         if not have_lodpipe:
             lp_single.append(None)
             continue
-        r = tools.lodpipe_simplify(glb, os.path.join(outroot, "lodpipe_%s" % fmt_pct(pct)), [pct],
-                                   "lodpipe simplify (single level)")
-        entry = {"rc": r["rc"], "wall": r["wall"], "stderr": r["stderr"]}
-        if r["rc"] == 0 and r["levels"]:
-            lv = r["levels"][0]
-            entry.update({"triangles": lv["triangles"], "bound_pct": lv["bound_pct"], "seconds": lv["seconds"]})
-            entry["check"] = tools.within(orig, lv["obj"], pct / 100) if not args.no_verify else None
+        entry = None
+        for variant, extra in (("half-edge", ()), ("optimal", ("--placement", "optimal"))):
+            r = tools.lodpipe_simplify(glb, os.path.join(outroot, "lodpipe_%s_%s" % (variant, fmt_pct(pct))), [pct],
+                                       "lodpipe simplify (single level)", extra)
+            e = {"rc": r["rc"], "wall": r["wall"], "stderr": r["stderr"]}
+            if r["rc"] == 0 and r["levels"]:
+                lv = r["levels"][0]
+                e.update({"triangles": lv["triangles"], "bound_pct": lv["bound_pct"], "seconds": lv["seconds"]})
+                e["check"] = tools.within(orig, lv["obj"], pct / 100) if not args.no_verify else None
+            if entry is None:
+                entry = e
+            else:
+                entry["optimal"] = e
+            log("%s lodpipe %s %s %%: %s triangles (rc %d, %.1f s)%s" % (
+                model, variant, fmt_pct(pct), e.get("triangles"), r["rc"], r["wall"],
+                "" if not e.get("check") else ", within eps: %s" % e["check"]["within"]))
         lp_single.append(entry)
-        log("%s lodpipe %s %%: %s triangles (rc %d, %.1f s)%s" % (
-            model, fmt_pct(pct), entry.get("triangles"), r["rc"], r["wall"],
-            "" if not entry.get("check") else ", within eps: %s" % entry["check"]["within"]))
 
     # meshoptimizer single-level bisection, eps ascending; a smaller eps's answer passes the larger eps
     bis = Bisector(tools, glb, orig, model, tol, args.max_probes)
@@ -340,15 +346,18 @@ def quality(tools, model, args, have_lodpipe):
         res["single"].append({"pct": pct, "lodpipe": lp_single[i], "meshopt": mo_single[i]})
 
     # chains
-    if have_lodpipe:
-        r = tools.lodpipe_simplify(glb, os.path.join(outroot, "lodpipe_chain"), CHAIN_PCT, "lodpipe simplify (chain)")
+    for key, extra in (("lodpipe", ()), ("lodpipe_optimal", ("--placement", "optimal"))):
+        if not have_lodpipe:
+            break
+        r = tools.lodpipe_simplify(glb, os.path.join(outroot, key + "_chain"), CHAIN_PCT, "lodpipe simplify (chain)",
+                                   extra)
         lv_out = []
         for lv in r["levels"]:
             e = {"triangles": lv["triangles"], "bound_pct": lv["bound_pct"], "seconds": lv["seconds"]}
             e["check"] = tools.within(orig, lv["obj"], lv["pct"] / 100) if not args.no_verify else None
             lv_out.append(e)
-        res["chain"]["lodpipe"] = {"rc": r["rc"], "wall": r["wall"], "stderr": r["stderr"], "levels": lv_out}
-        log("%s lodpipe chain: %s (rc %d)" % (model, [e["triangles"] for e in lv_out], r["rc"]))
+        res["chain"][key] = {"rc": r["rc"], "wall": r["wall"], "stderr": r["stderr"], "levels": lv_out}
+        log("%s %s chain: %s (rc %d)" % (model, key, [e["triangles"] for e in lv_out], r["rc"]))
 
     one = EPS_PCT.index(1.0)
     chain_b = [dict(mo_single[one], reused_from_single=True)]
@@ -497,9 +506,12 @@ def summary(results, w):
     lines = []
     for q in results.get("quality", []):
         checks = [s["lodpipe"].get("check") for s in q["single"] if s["lodpipe"]]
+        checks += [s["lodpipe"]["optimal"].get("check") for s in q["single"] if s["lodpipe"] and s["lodpipe"].get("optimal")]
         lpc = q["chain"].get("lodpipe")
-        if lpc:
-            checks += [lv.get("check") for lv in lpc["levels"]]
+        lpo = q["chain"].get("lodpipe_optimal")
+        for c_ in (lpc, lpo):
+            if c_:
+                checks += [lv.get("check") for lv in c_["levels"]]
         proven = sum(1 for c in checks if c and c["within"])
         over = sum(1 for c in checks if c and not c["within"] and not c.get("undecided") and not c["capped"])
         lp = [s["lodpipe"].get("triangles") if s["lodpipe"] else None for s in q["single"]]
@@ -509,10 +521,16 @@ def summary(results, w):
         t = "%s: lodpipe %s, meshoptimizer within eps %s (eps = %s %%)" % (
             q["model"], " / ".join(n(x) for x in lp) if results["have_lodpipe"] else "–",
             " / ".join(n(x) for x in mo), ", ".join(EPS_LABEL))
+        opt = [s["lodpipe"]["optimal"].get("triangles") if s["lodpipe"] and s["lodpipe"].get("optimal") else None
+               for s in q["single"]]
+        if any(x is not None for x in opt):
+            t += "; lodpipe with `--placement optimal` %s" % " / ".join(n(x) for x in opt)
         if q["model"] == "bunny":
             t += "; Cohen 1996 %s" % " / ".join(n(x) for x in COHEN_BUNNY)
-        t += "; chain 1/3/7/15 %%: lodpipe %s, meshoptimizer %s" % (" / ".join(n(x) for x in ch) if ch else "–",
-                                                                   " / ".join(n(x) for x in mc))
+        cho = [lv["triangles"] for lv in lpo["levels"]] if lpo and lpo["rc"] == 0 else None
+        t += "; chain 1/3/7/15 %%: lodpipe %s%s, meshoptimizer %s" % (
+            " / ".join(n(x) for x in ch) if ch else "–",
+            " (optimal placement %s)" % " / ".join(n(x) for x in cho) if cho else "", " / ".join(n(x) for x in mc))
         if results["have_lodpipe"]:
             t += "; %d of %d lodpipe levels independently proven within eps%s" % (
                 proven, len(checks), ", **%d measured over eps**" % over if over else "")
@@ -593,8 +611,9 @@ def report(results, args):
                                                                          n(info["vertices"]), info["diagonal"]))
             w("")
             bunny = q["model"] == "bunny"
-            hdr = "| eps % | lodpipe | bound % | checked | meshopt | (failing) | probes | meshopt / lodpipe |"
-            sep = "|---|---:|---:|---|---:|---:|---:|---:|"
+            hdr = ("| eps % | lodpipe | bound % | checked | lodpipe, optimal placement | checked | meshopt | (failing) "
+                   "| probes | meshopt / lodpipe |")
+            sep = "|---|---:|---:|---|---:|---|---:|---:|---:|---:|"
             if bunny:
                 hdr += " Cohen 1996 | DESIGN §6 prototype | DESIGN §6 meshopt |"
                 sep += "---:|---:|---:|"
@@ -610,8 +629,16 @@ def report(results, args):
                     b_cell = pctf(lp.get("bound_pct")) if lp else "–"
                     c_cell = check_cell(lp.get("check")) if lp else "–"
                 ratio = "%.2f" % (mo["triangles"] / lpt) if lpt else "–"
-                row = "| %s | %s | %s | %s | %s%s | %s | %d%s | %s |" % (
-                    EPS_LABEL[i], lp_cell, b_cell, c_cell, n(mo["triangles"]), " †" if mo["nonmonotone"] else "",
+                op = lp.get("optimal") if lp else None
+                if not op:
+                    o_cell, oc_cell = "–", "–"
+                elif op["rc"] != 0:
+                    o_cell, oc_cell = "failed (exit %d)" % op["rc"], "–"
+                else:
+                    o_cell, oc_cell = n(op.get("triangles")), check_cell(op.get("check"))
+                row = "| %s | %s | %s | %s | %s | %s | %s%s | %s | %d%s | %s |" % (
+                    EPS_LABEL[i], lp_cell, b_cell, c_cell, o_cell, oc_cell, n(mo["triangles"]),
+                    " †" if mo["nonmonotone"] else "",
                     n(mo["largest_failing"]),
                     mo["probes"], " (%d capped)" % mo["capped"] if mo["capped"] else "", ratio)
                 if bunny:
@@ -623,14 +650,22 @@ def report(results, args):
                 ok = [x is not None and x <= c for x, c in zip(le, COHEN_BUNNY)]
                 w("Issue 3 asks for lodpipe's bunny counts at or below Cohen et al. 1996: %d of 7 are (%s)."
                   % (sum(ok), ", ".join("%s %%: %s" % (EPS_LABEL[i], "yes" if o else "no") for i, o in enumerate(ok))))
+                lo = [s["lodpipe"]["optimal"].get("triangles") if s["lodpipe"] and s["lodpipe"].get("optimal") else None
+                      for s in q["single"]]
+                oko = [x is not None and x <= c for x, c in zip(lo, COHEN_BUNNY)]
+                w("With `--placement optimal` (full-edge collapses that place the kept vertex where the half-edge "
+                  "collapse cannot be certified; README \"Placement\"): %d of 7 (%s)."
+                  % (sum(oko), ", ".join("%s %%: %s" % (EPS_LABEL[i], "yes" if o else "no") for i, o in enumerate(oko))))
                 w("")
             # chain
             w("Chain 1/3/7/15 % (each level from the previous one, measured against the original):")
             w("")
-            w("| level | eps % | lodpipe | bound % | checked | meshopt, smallest within eps | (failing) | "
+            w("| level | eps % | lodpipe | bound % | checked | lodpipe, optimal placement | checked | "
+              "meshopt, smallest within eps | (failing) | "
               "meshopt, target_error = eps | its own error % | its measured H % | measured H / eps |")
-            w("|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|")
+            w("|---|---|---:|---:|---|---:|---|---:|---:|---:|---:|---:|---:|")
             lpc = q["chain"].get("lodpipe")
+            lpo = q["chain"].get("lodpipe_optimal")
             for k, pct in enumerate(CHAIN_PCT):
                 lv = lpc["levels"][k] if lpc and lpc["rc"] == 0 and k < len(lpc["levels"]) else None
                 mb = q["chain"]["meshopt_bisect"][k]
@@ -645,8 +680,11 @@ def report(results, args):
                     own_h = "empty level | –"
                 else:
                     own_h = "%.4g | %.2f" % (mo["measured_lower_pct"], mo["measured_lower_pct"] / pct)
-                w("| %d | %g | %s | %s | %s | %s%s | %s | %s | %.4g | %s |" % (
-                    k + 1, pct, lcell, bcell, ccell, n(mb["triangles"]), " †" if mb["nonmonotone"] else "",
+                lo = lpo["levels"][k] if lpo and lpo["rc"] == 0 and k < len(lpo["levels"]) else None
+                ocell = n(lo["triangles"]) if lo else ("failed (exit %d)" % lpo["rc"] if lpo else "–")
+                occell = check_cell(lo.get("check")) if lo else "–"
+                w("| %d | %g | %s | %s | %s | %s | %s | %s%s | %s | %s | %.4g | %s |" % (
+                    k + 1, pct, lcell, bcell, ccell, ocell, occell, n(mb["triangles"]), " †" if mb["nonmonotone"] else "",
                     n(mb["largest_failing"]), n(mo["triangles"]), mo["result_error_pct"], own_h))
             w("")
             if any(s_["meshopt"]["nonmonotone"] for s_ in q["single"]) or any(b["nonmonotone"] for b in q["chain"]["meshopt_bisect"]):

@@ -1376,7 +1376,13 @@ int simplify_mesh(const weld_result *w, const int64_t *primitive_material, const
         simplify_level *level = &out->levels[k];
         double t0 = now_seconds();
         s->level = k;
-        s->full_edge = (s->full_edge_levels >> k) & 1u;
+        /* placement waits until half-edge collapses alone have converged:
+         * then it can only remove more from this level, and the vertices
+         * it moves are the few where half-edge collapses are stuck (placing
+         * from the start gave more triangles on fandisk, e.g. 362 against
+         * 262 at 1/2 %, and never fewer at 1/64 % on the bunny) */
+        int placing_pending = (s->full_edge_levels >> k) & 1u;
+        s->full_edge = 0;
         s->stats = &level->stats;
         s->eps = options->fractions[k] * out->diagonal;
         level->eps = s->eps;
@@ -1398,7 +1404,12 @@ int simplify_mesh(const weld_result *w, const int64_t *primitive_material, const
                 else rc = lp_fail(err, LP_INVALID, "out of memory while simplifying");
                 goto done;
             }
-            if (commits == 0 && waiting == 0) break;
+            if (commits == 0 && waiting == 0) {
+                if (!placing_pending) break;
+                placing_pending = 0;
+                s->full_edge = 1; /* every candidate gets another chance, with placement */
+                memset(s->reject_version, 0xff, (size_t)w->vertex_count * sizeof *s->reject_version);
+            }
         }
         if (s->verify && verify_state(s, NULL, 0, NULL, 0) != 0) {
             rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);

@@ -1564,7 +1564,8 @@ static uint32_t placed_vertices(const run *rn, uint32_t k)
  * collapses, vertices really placed, no more triangles in total than the
  * half-edge run, the same result for 1, 2 and 8 threads and with the
  * invariant checker on. Placement on levels 3 and 4 only: levels 1 and 2 are
- * exactly the half-edge run's and carry no positions. */
+ * exactly the half-edge run's and carry no positions. One level alone: fewer
+ * triangles than without placement (it starts where half-edge converged). */
 static void test_optimal_placement(void)
 {
     mesh m;
@@ -1616,6 +1617,23 @@ static void test_optimal_placement(void)
               "levels 3 and 4 placed vertices");
         check_levels("placed levels 3-4", &full, 8);
         check_topology("placed levels 3-4", &full, 2, 0);
+    }
+    g_full_edge_levels = 0;
+    run_free(&full);
+    run_free(&half);
+
+    /* one level: placement starts where half-edge collapses have converged,
+     * so it can only remove more */
+    static const double one[1] = {0.03};
+    g_full_edge_levels = 0;
+    ok = run_simplify(&half, &m, one, 1, 2, 0) == LP_OK;
+    g_full_edge_levels = 1;
+    ok &= run_simplify(&full, &m, one, 1, 2, 0) == LP_OK;
+    if (ok) {
+        CHECK(full.r.levels[0].triangle_count < half.r.levels[0].triangle_count,
+              "one level: placed %u triangles, half-edge %u", full.r.levels[0].triangle_count,
+              half.r.levels[0].triangle_count);
+        check_levels("placed sphere, one level", &full, 8);
     }
     g_full_edge_levels = 0;
     run_free(&full);
