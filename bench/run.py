@@ -334,7 +334,13 @@ def quality(tools, model, args, have_lodpipe):
     bis = Bisector(tools, glb, orig, model, tol, args.max_probes)
     hi_t, hi_n = info["triangles"], info["triangles"]
     mo_single = []
-    for pct in EPS_PCT:
+    peer = (args.peer_results or {}).get(model)
+    if peer:  # --reuse-peer: meshoptimizer's side of this model from the previous run
+        log("%s: meshoptimizer figures reused from the previous run (--reuse-peer)" % model)
+        for i, pct in enumerate(EPS_PCT):
+            res["single"].append({"pct": pct, "lodpipe": lp_single[i], "meshopt": peer["single"][i]["meshopt"]})
+        res["peer_reused"] = True
+    for pct in EPS_PCT if not peer else ():
         t0 = time.monotonic()
         b = bis.search([], hi_t, hi_n, pct / 100)
         b["seconds"] = time.monotonic() - t0
@@ -342,7 +348,7 @@ def quality(tools, model, args, have_lodpipe):
         hi_t, hi_n = b["target"], b["triangles"]
         log("%s meshopt %s %%: %d triangles (target %d, %d probes, %.0f s)"
             % (model, fmt_pct(pct), b["triangles"], b["target"], b["probes"], b["seconds"]))
-    for i, pct in enumerate(EPS_PCT):
+    for i, pct in enumerate(EPS_PCT if not peer else ()):
         res["single"].append({"pct": pct, "lodpipe": lp_single[i], "meshopt": mo_single[i]})
 
     # chains
@@ -359,6 +365,12 @@ def quality(tools, model, args, have_lodpipe):
         res["chain"][key] = {"rc": r["rc"], "wall": r["wall"], "stderr": r["stderr"], "levels": lv_out}
         log("%s %s chain: %s (rc %d)" % (model, key, [e["triangles"] for e in lv_out], r["rc"]))
 
+    if peer:
+        for key in ("meshopt_bisect", "meshopt_own"):
+            res["chain"][key] = peer["chain"][key]
+        res["probe_seconds"] = peer.get("probe_seconds", 0)
+        res["seconds"] = time.monotonic() - t_model
+        return res
     one = EPS_PCT.index(1.0)
     chain_b = [dict(mo_single[one], reused_from_single=True)]
     prefix = [mo_single[one]["target"]]
@@ -569,6 +581,11 @@ def report(results, args):
         w("")
         w("Exception: the %s figures come from the previous run (`--skip-%s --reuse`), made with a lodpipe "
           "built %s; the table below describes this run." % (part, part, built))
+    if results.get("peer_reused_from"):
+        w("")
+        w("Exception: meshoptimizer's quality figures (bisections and own-error chains) were not measured again: "
+          "`--reuse-peer` took them from %s (same inputs, same peer library and measure); lodpipe's quality "
+          "figures were measured in this run." % results["peer_reused_from"])
     w("")
     w("| | |")
     w("|---|---|")
@@ -826,6 +843,9 @@ def main():
     ap.add_argument("--max-probes", type=int, default=30)
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--out", default=os.path.join(BENCH, "RESULTS.md"))
+    ap.add_argument("--reuse-peer", action="store_true",
+                    help="quality: take meshoptimizer's figures (bisections, own-error chain) of each model from "
+                         "bench/work/results.json instead of measuring them again; lodpipe's are measured")
     ap.add_argument("--reuse", action="store_true",
                     help="with --skip-quality or --skip-speed: keep that part from bench/work/results.json "
                          "(the previous run), so the two parts can be measured at different times")
@@ -841,6 +861,17 @@ def main():
         log("rewrote %s from bench/work/results.json" % rel(args.out))
         return
     args.shared = os.path.abspath(args.shared)
+    args.peer_results, peer_from = None, None
+    if args.reuse_peer:
+        with open(os.path.join(WORK, "results.json")) as f:
+            previous = json.load(f)
+        args.peer_results = {q["model"]: q for q in previous.get("quality", [])}
+        # where the reused figures were measured: carried along when they were reused already
+        peer_from = previous.get("peer_reused_from") or "the run of %s (commit %s)" % (
+            previous["machine"]["date"], previous["machine"]["commit"])
+        if "quality" in previous.get("reused", {}) and not previous.get("peer_reused_from"):
+            peer_from = "an earlier run (quality part reused by the run of %s)" % previous["machine"]["date"]
+        COMMANDS.update({k: v for k, v in previous.get("commands", {}).items() if "meshopt" in k})
 
     os.makedirs(WORK, exist_ok=True)
     tools = Tools(args)
@@ -887,6 +918,8 @@ def main():
                 results[part] = previous[part]
                 results.setdefault("reused", {})[part] = previous.get("machine", {}).get("lodpipe_mtime")
                 COMMANDS.update({k: v for k, v in previous.get("commands", {}).items() if k not in COMMANDS})
+    if args.reuse_peer and not args.skip_quality:
+        results["peer_reused_from"] = peer_from
     results["seconds"] = time.monotonic() - T_START
     results["commands"] = COMMANDS
     with open(os.path.join(WORK, "results.json"), "w") as f:
