@@ -25,7 +25,7 @@
  * Order of reports: deterministic for a given sequence of inserts and removes
  * (it does not depend on addresses or on threads), otherwise unspecified.
  *
- * Memory: per face slot 28 bytes (face_capacity fixed at init); a 20-byte
+ * Memory: per face slot 4 bytes (face_capacity fixed at init); a 20-byte
  * entry per (face, cell) pair, pooled with a free list and grown by doubling;
  * a 32-byte record per cell ever used and a 4-byte hash slot per cell at load
  * <= 1/2. Cells are not forgotten when they empty (so the table never needs
@@ -53,7 +53,8 @@ typedef enum {
 
 typedef struct {
     uint32_t face;
-    uint32_t cell;          /* index into cells; cell 0 is the big list */
+    uint32_t cell;          /* index into cells (low 29 bits; cell 0 is the big list),
+                               and bits 29 + k: the cell is the face's lowest on axis k */
     uint32_t next_in_cell;  /* FACEGRID_NONE at the end */
     uint32_t prev_in_cell;  /* FACEGRID_NONE for the cell's first entry */
     uint32_t next_of_face;  /* the face's next entry; the free list's link */
@@ -72,7 +73,6 @@ typedef struct {
     uint32_t face_capacity;
     uint32_t face_count;            /* faces present */
     uint32_t *face_head;            /* first entry of each face, or FACEGRID_NONE */
-    int64_t *face_first_cell;       /* 3 per face: lowest cell coordinates */
     facegrid_entry *entries;
     uint32_t entry_used;            /* high-water mark of the pool */
     uint32_t entry_capacity;
