@@ -1165,7 +1165,7 @@ static int scratch_init(scratch *sc, uint32_t nv)
     return sc->vertex_seen ? 0 : -1;
 }
 
-static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_material, const simplify_options *o)
+static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, const simplify_options *o)
 {
     const uint32_t nv = w->vertex_count, nf = w->triangle_count;
     s->w = w;
@@ -1179,7 +1179,10 @@ static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_mater
     if (s->thread_count > MAX_THREADS) s->thread_count = MAX_THREADS;
     s->face_material = malloc(((size_t)nf + 1) * sizeof *s->face_material);
     s->corner_vertex = malloc((3 * (size_t)nf + 1) * sizeof *s->corner_vertex);
-    s->corner_wedge = malloc((3 * (size_t)nf + 1) * sizeof *s->corner_wedge);
+    /* taken over, not copied: the weld's wedges are where the corners start,
+     * and nothing else reads them (simplify.h) */
+    s->corner_wedge = w->triangle_wedges;
+    w->triangle_wedges = NULL;
     s->corner_next = malloc((3 * (size_t)nf + 1) * sizeof *s->corner_next);
     s->face_alive = malloc((size_t)nf + 1);
     s->face_bound = calloc((size_t)nf + 1, sizeof *s->face_bound);
@@ -1209,7 +1212,6 @@ static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_mater
         s->face_material[f] = m < 0 ? -1 : (int32_t)(m > INT32_MAX ? INT32_MAX : m);
     }
     memcpy(s->corner_vertex, w->triangle_vertices, 3 * (size_t)nf * sizeof *s->corner_vertex);
-    memcpy(s->corner_wedge, w->triangle_wedges, 3 * (size_t)nf * sizeof *s->corner_wedge);
     memset(s->face_alive, 1, nf);
     memset(s->vertex_alive, 1, nv);
     memset(s->vertex_first, 0xff, ((size_t)nv + 1) * sizeof *s->vertex_first);
@@ -1262,7 +1264,7 @@ static int snapshot_level(sim *s, simplify_level *level)
     return 0;
 }
 
-int simplify_mesh(const weld_result *w, const int64_t *primitive_material, const simplify_options *options,
+int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simplify_options *options,
                   simplify_result *out, lp_error *err)
 {
     memset(out, 0, sizeof *out);

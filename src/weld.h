@@ -150,7 +150,7 @@ typedef struct weld_result {
 
     /* triangles (corner 3t + c) and their edges (edge 3t + e, corner e -> e + 1) */
     uint32_t triangle_count;
-    uint32_t *triangle_wedges;    /* 3 per triangle */
+    uint32_t *triangle_wedges;    /* 3 per triangle (simplify_mesh takes it over: NULL afterwards) */
     uint32_t *triangle_vertices;  /* 3 per triangle, = wedge_vertex[triangle_wedges[..]] */
     uint32_t *triangle_primitive; /* 1 per triangle */
     uint32_t *edge_opposite;      /* 3 per triangle: opposite edge or a WELD_EDGE_IS_ marker
