@@ -1,8 +1,9 @@
 /* facegrid.c - dynamic uniform spatial hash of faces (see facegrid.h).
  *
- * Layout: a pool of entries (one per face and cell), each in two lists: the
- * cell's doubly linked list (so removal is O(1) per entry) and the face's
- * singly linked chain (so removal finds them). Cells are records in a flat
+ * Layout: a pool of 16-byte entries (one per face and cell), each in two
+ * lists: the cell's doubly linked list (so removal is O(1) per entry; the
+ * first entry's back link names the cell, so an entry needs no cell field)
+ * and the face's singly linked chain (so removal finds them). Cells are records in a flat
  * array, found by key through an open-addressing table of cell indices with
  * linear probing; cell records are never deleted before facegrid_clear, so
  * the table needs no tombstones. Every insert reserves all the entries, cells
@@ -20,13 +21,16 @@
 #define CELL_LIMIT 4503599627370496.0
 #define QUERY_LIMIT 4611686018427387904.0
 #define MAX_POOL ((uint32_t)1 << 30)
-/* An entry's `cell` field: the cell index in the low bits, and above it one
- * bit per axis saying whether the cell is the face's lowest on that axis
- * (what the exactly-once rule of report_cell needs), so no per-face record
- * of the first cell is kept. Cells stay below MAX_CELLS. */
 #define MAX_CELLS ((uint32_t)1 << 29)
-#define CELL_INDEX_MASK (MAX_CELLS - 1u)
-#define FIRST_ON_AXIS(k) ((uint32_t)1 << (29 + (k)))
+/* An entry's `face` field: the face in the low bits (faces are below
+ * FACEGRID_MAX_FACES), and above it one bit per axis saying whether the
+ * cell is the face's lowest on that axis (what the exactly-once rule of
+ * report_cell needs), so no per-face record of the first cell is kept. */
+#define FACE_MASK (FACEGRID_MAX_FACES - 1u)
+#define FIRST_ON_AXIS(k) ((uint32_t)FACEGRID_MAX_FACES << (k))
+/* prev_in_cell of a cell's first entry: this bit and the cell index (entry
+ * indices are below MAX_POOL, so they never have it). */
+#define CELL_HEAD ((uint32_t)1 << 31)
 
 /* ---- hashing -------------------------------------------------------------- */
 
@@ -127,9 +131,8 @@ static void add_entry(facegrid *g, uint32_t face, uint32_t cell, uint32_t first_
         e = g->entry_used++;
     }
     facegrid_entry *entry = &g->entries[e];
-    entry->face = face;
-    entry->cell = cell | first_axes;
-    entry->prev_in_cell = FACEGRID_NONE;
+    entry->face = face | first_axes;
+    entry->prev_in_cell = CELL_HEAD | cell;
     entry->next_in_cell = g->cells[cell].head;
     if (entry->next_in_cell != FACEGRID_NONE) g->entries[entry->next_in_cell].prev_in_cell = e;
     g->cells[cell].head = e;
@@ -164,7 +167,7 @@ facegrid_result facegrid_init(facegrid *g, double cell_size, uint32_t face_capac
     memset(g, 0, sizeof *g);
     g->entry_free = FACEGRID_NONE;
     if (!(cell_size > 0) || !isfinite(cell_size) || !isfinite(1.0 / cell_size) ||
-        face_capacity == FACEGRID_NONE)
+        face_capacity > FACEGRID_MAX_FACES)
         return FACEGRID_ERROR_INVALID_ARGUMENT;
     g->cell_size = cell_size;
     g->inverse_cell_size = 1.0 / cell_size;
@@ -226,10 +229,10 @@ void facegrid_remove(facegrid *g, uint32_t face)
     while (e != FACEGRID_NONE) {
         facegrid_entry *entry = &g->entries[e];
         uint32_t next = entry->next_of_face;
-        if (entry->prev_in_cell != FACEGRID_NONE)
-            g->entries[entry->prev_in_cell].next_in_cell = entry->next_in_cell;
+        if (entry->prev_in_cell & CELL_HEAD)
+            g->cells[entry->prev_in_cell & ~CELL_HEAD].head = entry->next_in_cell;
         else
-            g->cells[entry->cell & CELL_INDEX_MASK].head = entry->next_in_cell;
+            g->entries[entry->prev_in_cell].next_in_cell = entry->next_in_cell;
         if (entry->next_in_cell != FACEGRID_NONE)
             g->entries[entry->next_in_cell].prev_in_cell = entry->prev_in_cell;
         entry->face = FACEGRID_NONE;
@@ -316,9 +319,9 @@ static int report_cell(const facegrid *g, uint32_t cell, const int64_t q0[3],
         if (key[k] == q0[k]) at_query_low |= FIRST_ON_AXIS(k);
     const uint32_t all_axes = FIRST_ON_AXIS(0) | FIRST_ON_AXIS(1) | FIRST_ON_AXIS(2);
     for (uint32_t e = g->cells[cell].head; e != FACEGRID_NONE; e = g->entries[e].next_in_cell) {
-        if (((g->entries[e].cell | at_query_low) & all_axes) != all_axes) continue;
         uint32_t face = g->entries[e].face;
-        int r = callback(context, face);
+        if (((face | at_query_low) & all_axes) != all_axes) continue;
+        int r = callback(context, face & FACE_MASK);
         if (r) return r;
     }
     return 0;
@@ -330,7 +333,7 @@ int facegrid_query(const facegrid *g, const double lo[3], const double hi[3],
     if (!g || !g->face_head || !callback || !lo || !hi) return 0;
 
     for (uint32_t e = g->cells[BIG_CELL].head; e != FACEGRID_NONE; e = g->entries[e].next_in_cell) {
-        int r = callback(context, g->entries[e].face);
+        int r = callback(context, g->entries[e].face & FACE_MASK);
         if (r) return r;
     }
 
