@@ -29,12 +29,20 @@ static const double BOX_DISTANCE_SHRINK = 1.0 - 1e-14;
 
 /* ---- build ---------------------------------------------------------------- */
 
-/* A triangle as the builder sees it; sorted in place while splitting. */
+/* A triangle as the builder sees it; sorted in place while splitting. Its
+ * centre is recomputed from the box when needed (ref_centre) rather than
+ * stored: 12 bytes less a triangle while the build holds one per triangle. */
 typedef struct {
     float lo[3], hi[3];
-    float centre[3];
     uint32_t triangle;
 } build_ref;
+
+/* The box centre along axis, halves first (lo + hi could overflow near
+ * FLT_MAX); float arithmetic, so the same value every time it is asked. */
+static inline float ref_centre(const build_ref *ref, int axis)
+{
+    return 0.5f * ref->lo[axis] + 0.5f * ref->hi[axis];
+}
 
 /* What a range of refs spans: the union of their boxes (the node box) and
  * the box of their centres (what splitting looks at). */
@@ -71,10 +79,9 @@ static void bounds_add_ref(range_bounds *r, const build_ref *ref)
     for (int axis = 0; axis < 3; axis++) {
         r->lo[axis] = ref->lo[axis] < r->lo[axis] ? ref->lo[axis] : r->lo[axis];
         r->hi[axis] = ref->hi[axis] > r->hi[axis] ? ref->hi[axis] : r->hi[axis];
-        r->centre_lo[axis] = ref->centre[axis] < r->centre_lo[axis] ? ref->centre[axis]
-                                                                    : r->centre_lo[axis];
-        r->centre_hi[axis] = ref->centre[axis] > r->centre_hi[axis] ? ref->centre[axis]
-                                                                    : r->centre_hi[axis];
+        float centre = ref_centre(ref, axis);
+        r->centre_lo[axis] = centre < r->centre_lo[axis] ? centre : r->centre_lo[axis];
+        r->centre_hi[axis] = centre > r->centre_hi[axis] ? centre : r->centre_hi[axis];
     }
 }
 
@@ -127,9 +134,6 @@ static bvh_result make_refs(build_ref *refs, const float *positions, size_t vert
                 if (xyz[axis] > ref->hi[axis]) ref->hi[axis] = xyz[axis];
             }
         }
-        /* Halves first: lo + hi could overflow near FLT_MAX. */
-        for (int axis = 0; axis < 3; axis++)
-            ref->centre[axis] = 0.5f * ref->lo[axis] + 0.5f * ref->hi[axis];
         ref->triangle = t;
     }
     return BVH_OK;
@@ -153,15 +157,15 @@ static void select_nth_by_centre(build_ref *refs, uint32_t count, uint32_t nth, 
         uint32_t mid = left + (right - left) / 2;
         /* Order refs[left], refs[mid], refs[right]; the median goes to mid.
          * This also puts a sentinel at each end for the scans below. */
-        if (refs[mid].centre[axis] < refs[left].centre[axis]) swap_refs(&refs[mid], &refs[left]);
-        if (refs[right].centre[axis] < refs[left].centre[axis]) swap_refs(&refs[right], &refs[left]);
-        if (refs[right].centre[axis] < refs[mid].centre[axis]) swap_refs(&refs[right], &refs[mid]);
-        float pivot = refs[mid].centre[axis];
+        if (ref_centre(&refs[mid], axis) < ref_centre(&refs[left], axis)) swap_refs(&refs[mid], &refs[left]);
+        if (ref_centre(&refs[right], axis) < ref_centre(&refs[left], axis)) swap_refs(&refs[right], &refs[left]);
+        if (ref_centre(&refs[right], axis) < ref_centre(&refs[mid], axis)) swap_refs(&refs[right], &refs[mid]);
+        float pivot = ref_centre(&refs[mid], axis);
 
         uint32_t i = left, j = right;
         for (;;) {
-            while (refs[i].centre[axis] < pivot) i++;
-            while (refs[j].centre[axis] > pivot) j--;
+            while (ref_centre(&refs[i], axis) < pivot) i++;
+            while (ref_centre(&refs[j], axis) > pivot) j--;
             if (i >= j) break;
             swap_refs(&refs[i], &refs[j]);
             i++;
@@ -199,7 +203,7 @@ static uint32_t split_by_sah(build_ref *refs, uint32_t count, int axis,
     range_bounds bin[SAH_BIN_COUNT];
     for (int b = 0; b < SAH_BIN_COUNT; b++) bounds_reset(&bin[b]);
     for (uint32_t i = 0; i < count; i++) {
-        int b = centre_bin(refs[i].centre[axis], centre_min, bin_scale);
+        int b = centre_bin(ref_centre(&refs[i], axis), centre_min, bin_scale);
         bin_count[b]++;
         bounds_add_ref(&bin[b], &refs[i]);
     }
@@ -236,7 +240,7 @@ static uint32_t split_by_sah(build_ref *refs, uint32_t count, int axis,
 
     uint32_t i = 0, j = count;
     while (i < j) {
-        if (centre_bin(refs[i].centre[axis], centre_min, bin_scale) < best_split) {
+        if (centre_bin(ref_centre(&refs[i], axis), centre_min, bin_scale) < best_split) {
             i++;
         } else {
             j--;

@@ -28,9 +28,9 @@
  * and one array maps leaf slots to triangle numbers. Memory: 4 bytes per
  * triangle for that map plus 32 bytes per node; with 0.6 to 0.7 nodes per
  * triangle that is ~24 to 26 bytes per triangle (measured on 1.1M-triangle
- * meshes; bvh_memory_bytes reports the exact figure). The build peaks at ~76
- * bytes per triangle (40 of scratch, 32 for the node array before it is
- * trimmed) and frees the scratch before returning.
+ * meshes; bvh_memory_bytes reports the exact figure). The build peaks at 64
+ * bytes per triangle (28 of scratch, 32 for the node array before it is
+ * trimmed, 4 for the map) and frees the scratch before returning.
  *
  * Build: binned SAH on triangle-box centres along the widest axis (16 bins),
  * median split when binning finds nothing useful, O(n log n): ~0.4 s for 1.1M

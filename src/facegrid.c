@@ -1,8 +1,9 @@
 /* facegrid.c - dynamic uniform spatial hash of faces (see facegrid.h).
  *
- * Layout: a pool of entries (one per face and cell), each in two lists: the
- * cell's doubly linked list (so removal is O(1) per entry) and the face's
- * singly linked chain (so removal finds them). Cells are records in a flat
+ * Layout: a pool of 16-byte entries (one per face and cell), each in two
+ * lists: the cell's doubly linked list (so removal is O(1) per entry; the
+ * first entry's back link names the cell, so an entry needs no cell field)
+ * and the face's singly linked chain (so removal finds them). Cells are records in a flat
  * array, found by key through an open-addressing table of cell indices with
  * linear probing; cell records are never deleted before facegrid_clear, so
  * the table needs no tombstones. Every insert reserves all the entries, cells
@@ -20,6 +21,16 @@
 #define CELL_LIMIT 4503599627370496.0
 #define QUERY_LIMIT 4611686018427387904.0
 #define MAX_POOL ((uint32_t)1 << 30)
+#define MAX_CELLS ((uint32_t)1 << 29)
+/* An entry's `face` field: the face in the low bits (faces are below
+ * FACEGRID_MAX_FACES), and above it one bit per axis saying whether the
+ * cell is the face's lowest on that axis (what the exactly-once rule of
+ * report_cell needs), so no per-face record of the first cell is kept. */
+#define FACE_MASK (FACEGRID_MAX_FACES - 1u)
+#define FIRST_ON_AXIS(k) ((uint32_t)FACEGRID_MAX_FACES << (k))
+/* prev_in_cell of a cell's first entry: this bit and the cell index (entry
+ * indices are below MAX_POOL, so they never have it). */
+#define CELL_HEAD ((uint32_t)1 << 31)
 
 /* ---- hashing -------------------------------------------------------------- */
 
@@ -64,7 +75,7 @@ static void table_put(uint32_t *table, uint32_t mask, uint64_t hash, uint32_t ce
 static int reserve_cells(facegrid *g, uint64_t more)
 {
     uint64_t need = (uint64_t)g->cell_count + more;
-    if (need > MAX_POOL) return -1;
+    if (need > MAX_CELLS) return -1;
     if (need > g->cell_capacity) {
         uint64_t capacity = g->cell_capacity ? g->cell_capacity : 64;
         while (capacity < need) capacity *= 2;
@@ -108,8 +119,8 @@ static int reserve_entries(facegrid *g, uint64_t more)
 /* ---- entries and cells ---------------------------------------------------- */
 
 /* Takes an entry (room reserved) and links it at the front of `cell` and of
- * face's chain. */
-static void add_entry(facegrid *g, uint32_t face, uint32_t cell)
+ * face's chain; `first_axes` are FIRST_ON_AXIS bits. */
+static void add_entry(facegrid *g, uint32_t face, uint32_t cell, uint32_t first_axes)
 {
     uint32_t e;
     if (g->entry_free != FACEGRID_NONE) {
@@ -120,9 +131,8 @@ static void add_entry(facegrid *g, uint32_t face, uint32_t cell)
         e = g->entry_used++;
     }
     facegrid_entry *entry = &g->entries[e];
-    entry->face = face;
-    entry->cell = cell;
-    entry->prev_in_cell = FACEGRID_NONE;
+    entry->face = face | first_axes;
+    entry->prev_in_cell = CELL_HEAD | cell;
     entry->next_in_cell = g->cells[cell].head;
     if (entry->next_in_cell != FACEGRID_NONE) g->entries[entry->next_in_cell].prev_in_cell = e;
     g->cells[cell].head = e;
@@ -157,16 +167,15 @@ facegrid_result facegrid_init(facegrid *g, double cell_size, uint32_t face_capac
     memset(g, 0, sizeof *g);
     g->entry_free = FACEGRID_NONE;
     if (!(cell_size > 0) || !isfinite(cell_size) || !isfinite(1.0 / cell_size) ||
-        face_capacity == FACEGRID_NONE)
+        face_capacity > FACEGRID_MAX_FACES)
         return FACEGRID_ERROR_INVALID_ARGUMENT;
     g->cell_size = cell_size;
     g->inverse_cell_size = 1.0 / cell_size;
     g->face_capacity = face_capacity;
     g->face_head = malloc((face_capacity ? face_capacity : 1) * sizeof *g->face_head);
-    g->face_first_cell = malloc((face_capacity ? (size_t)face_capacity : 1) * 3 * sizeof *g->face_first_cell);
     g->table = malloc(128 * sizeof *g->table);
     g->table_mask = 127;
-    if (!g->face_head || !g->face_first_cell || !g->table || reserve_cells(g, 1) != 0) {
+    if (!g->face_head || !g->table || reserve_cells(g, 1) != 0) {
         facegrid_free(g);
         return FACEGRID_ERROR_OUT_OF_MEMORY;
     }
@@ -192,7 +201,6 @@ void facegrid_free(facegrid *g)
 {
     if (!g) return;
     free(g->face_head);
-    free(g->face_first_cell);
     free(g->entries);
     free(g->cells);
     free(g->table);
@@ -203,7 +211,7 @@ void facegrid_free(facegrid *g)
 size_t facegrid_memory(const facegrid *g)
 {
     if (!g || !g->face_head) return 0;
-    return (size_t)g->face_capacity * (sizeof *g->face_head + 3 * sizeof *g->face_first_cell) +
+    return (size_t)g->face_capacity * sizeof *g->face_head +
            (size_t)g->entry_capacity * sizeof *g->entries +
            (size_t)g->cell_capacity * sizeof *g->cells +
            ((size_t)g->table_mask + 1) * sizeof *g->table;
@@ -221,10 +229,10 @@ void facegrid_remove(facegrid *g, uint32_t face)
     while (e != FACEGRID_NONE) {
         facegrid_entry *entry = &g->entries[e];
         uint32_t next = entry->next_of_face;
-        if (entry->prev_in_cell != FACEGRID_NONE)
-            g->entries[entry->prev_in_cell].next_in_cell = entry->next_in_cell;
+        if (entry->prev_in_cell & CELL_HEAD)
+            g->cells[entry->prev_in_cell & ~CELL_HEAD].head = entry->next_in_cell;
         else
-            g->cells[entry->cell].head = entry->next_in_cell;
+            g->entries[entry->prev_in_cell].next_in_cell = entry->next_in_cell;
         if (entry->next_in_cell != FACEGRID_NONE)
             g->entries[entry->next_in_cell].prev_in_cell = entry->prev_in_cell;
         entry->face = FACEGRID_NONE;
@@ -267,18 +275,22 @@ facegrid_result facegrid_insert(facegrid *g, uint32_t face, const double lo[3], 
     int small = insert_range(g, lo, hi, c0, c1, &total);
     if (!small) {
         if (reserve_entries(g, 1) != 0) return FACEGRID_ERROR_OUT_OF_MEMORY;
-        add_entry(g, face, BIG_CELL);
+        add_entry(g, face, BIG_CELL, 0);
         g->face_count++;
         return FACEGRID_OK;
     }
     if (reserve_entries(g, total) != 0 || reserve_cells(g, total) != 0)
         return FACEGRID_ERROR_OUT_OF_MEMORY;
 
-    memcpy(&g->face_first_cell[3 * (size_t)face], c0, sizeof c0);
     int64_t key[3];
     for (key[0] = c0[0]; key[0] <= c1[0]; key[0]++)
         for (key[1] = c0[1]; key[1] <= c1[1]; key[1]++)
-            for (key[2] = c0[2]; key[2] <= c1[2]; key[2]++) add_entry(g, face, get_cell(g, key));
+            for (key[2] = c0[2]; key[2] <= c1[2]; key[2]++) {
+                uint32_t first = 0;
+                for (int k = 0; k < 3; k++)
+                    if (key[k] == c0[k]) first |= FIRST_ON_AXIS(k);
+                add_entry(g, face, get_cell(g, key), first);
+            }
     g->face_count++;
     return FACEGRID_OK;
 }
@@ -293,19 +305,23 @@ static int64_t query_coordinate(const facegrid *g, double x)
     return (int64_t)c;
 }
 
-/* Reports the entries of one cell whose face has here its first cell in
- * common with the query range [q0, q1]. */
+/* Reports the entries of one cell (inside the query range [q0, q1]) whose
+ * face has here its first cell in common with the range: on every axis the
+ * cell is max(the face's lowest cell, q0). Both are <= the cell's key, so
+ * that max equals the key exactly when one of them does: the entry's
+ * FIRST_ON_AXIS bit, or key == q0. */
 static int report_cell(const facegrid *g, uint32_t cell, const int64_t q0[3],
                        facegrid_callback callback, void *context)
 {
     const int64_t *key = g->cells[cell].key;
+    uint32_t at_query_low = 0;
+    for (int k = 0; k < 3; k++)
+        if (key[k] == q0[k]) at_query_low |= FIRST_ON_AXIS(k);
+    const uint32_t all_axes = FIRST_ON_AXIS(0) | FIRST_ON_AXIS(1) | FIRST_ON_AXIS(2);
     for (uint32_t e = g->cells[cell].head; e != FACEGRID_NONE; e = g->entries[e].next_in_cell) {
         uint32_t face = g->entries[e].face;
-        const int64_t *first = &g->face_first_cell[3 * (size_t)face];
-        int here = 1;
-        for (int k = 0; k < 3; k++) here &= key[k] == (first[k] > q0[k] ? first[k] : q0[k]);
-        if (!here) continue;
-        int r = callback(context, face);
+        if (((face | at_query_low) & all_axes) != all_axes) continue;
+        int r = callback(context, face & FACE_MASK);
         if (r) return r;
     }
     return 0;
@@ -317,7 +333,7 @@ int facegrid_query(const facegrid *g, const double lo[3], const double hi[3],
     if (!g || !g->face_head || !callback || !lo || !hi) return 0;
 
     for (uint32_t e = g->cells[BIG_CELL].head; e != FACEGRID_NONE; e = g->entries[e].next_in_cell) {
-        int r = callback(context, g->entries[e].face);
+        int r = callback(context, g->entries[e].face & FACE_MASK);
         if (r) return r;
     }
 

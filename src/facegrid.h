@@ -25,7 +25,7 @@
  * Order of reports: deterministic for a given sequence of inserts and removes
  * (it does not depend on addresses or on threads), otherwise unspecified.
  *
- * Memory: per face slot 28 bytes (face_capacity fixed at init); a 20-byte
+ * Memory: per face slot 4 bytes (face_capacity fixed at init); a 16-byte
  * entry per (face, cell) pair, pooled with a free list and grown by doubling;
  * a 32-byte record per cell ever used and a 4-byte hash slot per cell at load
  * <= 1/2. Cells are not forgotten when they empty (so the table never needs
@@ -43,6 +43,9 @@
 /* A face whose box spans more cells than this goes into the big list. */
 #define FACEGRID_MAX_CELLS_PER_FACE 4096
 
+/* Face ids are below this (2^29; an entry keeps three flag bits above it). */
+#define FACEGRID_MAX_FACES ((uint32_t)1 << 29)
+
 #define FACEGRID_NONE UINT32_MAX
 
 typedef enum {
@@ -52,10 +55,11 @@ typedef enum {
 } facegrid_result;
 
 typedef struct {
-    uint32_t face;
-    uint32_t cell;          /* index into cells; cell 0 is the big list */
+    uint32_t face;          /* the face (low 29 bits), and bit 29 + k: the cell is
+                               the face's lowest on axis k */
     uint32_t next_in_cell;  /* FACEGRID_NONE at the end */
-    uint32_t prev_in_cell;  /* FACEGRID_NONE for the cell's first entry */
+    uint32_t prev_in_cell;  /* previous entry; for the cell's first entry
+                               bit 31 + the cell's index (cell 0 is the big list) */
     uint32_t next_of_face;  /* the face's next entry; the free list's link */
 } facegrid_entry;
 
@@ -72,7 +76,6 @@ typedef struct {
     uint32_t face_capacity;
     uint32_t face_count;            /* faces present */
     uint32_t *face_head;            /* first entry of each face, or FACEGRID_NONE */
-    int64_t *face_first_cell;       /* 3 per face: lowest cell coordinates */
     facegrid_entry *entries;
     uint32_t entry_used;            /* high-water mark of the pool */
     uint32_t entry_capacity;
@@ -85,8 +88,8 @@ typedef struct {
     uint32_t table_mask;            /* table size - 1 (a power of two) */
 } facegrid;
 
-/* Prepares an empty grid for faces 0 .. face_capacity - 1 with cubic cells
- * of side cell_size (finite, > 0). On failure the grid is empty and safe to
+/* Prepares an empty grid for faces 0 .. face_capacity - 1 (face_capacity
+ * <= FACEGRID_MAX_FACES) with cubic cells of side cell_size (finite, > 0). On failure the grid is empty and safe to
  * facegrid_free. */
 facegrid_result facegrid_init(facegrid *g, double cell_size, uint32_t face_capacity);
 

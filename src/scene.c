@@ -521,16 +521,35 @@ int scene_load_memory(const void *bytes, size_t size, const char *path, const sc
     return scene_build(out, rc, msg, err);
 }
 
+/* The arrays scene_load allocated for one primitive. */
+static void free_primitive_data(scene_primitive *pr)
+{
+    for (uint32_t a = 0; pr->streams && a < pr->stream_count; ++a) free(pr->streams[a].values);
+    free(pr->streams);
+    free(pr->triangles);
+}
+
+void scene_release_mesh_data(scene *s, uint32_t mesh)
+{
+    if (mesh >= s->mesh_count) return;
+    scene_mesh *m = &s->meshes[mesh];
+    for (uint32_t p = 0; m->primitives && p < m->primitive_count; ++p) {
+        scene_primitive *pr = &m->primitives[p];
+        free_primitive_data(pr);
+        pr->streams = NULL;
+        pr->stream_count = 0;
+        pr->positions = NULL;
+        pr->vertex_count = 0;
+        pr->triangles = NULL;
+        pr->triangle_count = 0;
+    }
+}
+
 void scene_free(scene *s)
 {
     for (uint32_t m = 0; s->meshes && m < s->mesh_count; ++m) {
         scene_mesh *mesh = &s->meshes[m];
-        for (uint32_t p = 0; mesh->primitives && p < mesh->primitive_count; ++p) {
-            scene_primitive *pr = &mesh->primitives[p];
-            for (uint32_t a = 0; pr->streams && a < pr->stream_count; ++a) free(pr->streams[a].values);
-            free(pr->streams);
-            free(pr->triangles);
-        }
+        for (uint32_t p = 0; mesh->primitives && p < mesh->primitive_count; ++p) free_primitive_data(&mesh->primitives[p]);
         free(mesh->primitives);
         free(mesh->instances);
     }

@@ -94,6 +94,15 @@ int scene_load_memory(const void *bytes, size_t size, const char *path, const sc
                       lp_error *err);
 void scene_free(scene *s);
 
+/* Frees the vertex streams and triangle arrays of mesh `mesh`'s primitives
+ * and leaves those primitives with no streams, no positions, no triangles
+ * (counts 0); everything else (materials, modes, the mesh's name, counts,
+ * bounds, instances) stays. For a caller done with the mesh's geometry, e.g.
+ * `lodpipe simplify` once the mesh is welded (the weld result borrows
+ * nothing from the scene), so that a large mesh is not held twice while it
+ * is simplified. Out of range: nothing happens. */
+void scene_release_mesh_data(scene *s, uint32_t mesh);
+
 /* Largest axis scale of a column-major 4x4 transform (length of the longest
  * of the first three columns). */
 double scene_max_scale(const double m[16]);

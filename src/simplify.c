@@ -965,11 +965,81 @@ typedef struct ranked {
     uint32_t u;
 } ranked;
 
-static int compare_ranked(const void *a, const void *b)
+/* Cheaper first, the lower vertex number on a tie: a strict total order (the
+ * numbers are distinct and costs are never NaN), so any correct sort gives
+ * the same sequence. */
+static int ranked_before(const ranked *x, const ranked *y)
 {
-    const ranked *x = a, *y = b;
-    if (x->cost != y->cost) return x->cost < y->cost ? -1 : 1;
-    return x->u < y->u ? -1 : x->u > y->u;
+    return x->cost < y->cost || (x->cost == y->cost && x->u < y->u);
+}
+
+static void swap_ranked(ranked *a, ranked *b)
+{
+    ranked t = *a;
+    *a = *b;
+    *b = t;
+}
+
+static void heap_sift_ranked(ranked *a, size_t root, size_t n)
+{
+    for (;;) {
+        size_t child = 2 * root + 1;
+        if (child >= n) return;
+        if (child + 1 < n && ranked_before(&a[child], &a[child + 1])) child++;
+        if (!ranked_before(&a[root], &a[child])) return;
+        swap_ranked(&a[root], &a[child]);
+        root = child;
+    }
+}
+
+/* Introsort in place: quicksort (median of three, Hoare partition), heapsort
+ * past a depth limit, insertion sort for short runs. glibc's qsort allocates
+ * a copy of the array (16 bytes a vertex) while it merges, at the moment the
+ * simplifier's memory peaks; this needs none, and is about twice as fast. */
+static void sort_ranked_depth(ranked *a, size_t n, unsigned depth)
+{
+    while (n > 16) {
+        if (depth-- == 0) {
+            for (size_t i = n / 2; i-- > 0;) heap_sift_ranked(a, i, n);
+            for (size_t end = n - 1; end > 0; --end) {
+                swap_ranked(&a[0], &a[end]);
+                heap_sift_ranked(a, 0, end);
+            }
+            return;
+        }
+        const ranked *x = &a[0], *y = &a[n / 2], *z = &a[n - 1];
+        const ranked *median = ranked_before(x, y) ? (ranked_before(y, z) ? y : ranked_before(x, z) ? z : x)
+                                                   : (ranked_before(x, z) ? x : ranked_before(y, z) ? z : y);
+        const ranked pivot = *median;
+        size_t i = 0, j = n - 1;
+        for (;;) {
+            while (ranked_before(&a[i], &pivot)) i++;
+            while (ranked_before(&pivot, &a[j])) j--;
+            if (i >= j) break;
+            swap_ranked(&a[i], &a[j]);
+            i++;
+            j--;
+        }
+        /* a[0..j] <= pivot <= a[j+1..n-1]; recurse into the shorter side */
+        size_t left = j + 1;
+        if (left < n - left) {
+            sort_ranked_depth(a, left, depth);
+            a += left;
+            n -= left;
+        } else {
+            sort_ranked_depth(a + left, n - left, depth);
+            n = left;
+        }
+    }
+    for (size_t i = 1; i < n; ++i)
+        for (size_t j = i; j > 0 && ranked_before(&a[j], &a[j - 1]); --j) swap_ranked(&a[j], &a[j - 1]);
+}
+
+static void sort_ranked(ranked *a, size_t n)
+{
+    unsigned depth = 0;
+    for (size_t m = n; m > 1; m >>= 1) depth += 2;
+    sort_ranked_depth(a, n, depth);
 }
 
 /* Vertices worth evaluating, cheapest first: alive, not locked, not rejected
@@ -996,7 +1066,7 @@ static size_t collect_candidates(sim *s, ranked *out)
             n++;
         }
     }
-    qsort(out, n, sizeof *out, compare_ranked);
+    sort_ranked(out, n);
     return n;
 }
 
@@ -1231,7 +1301,7 @@ static int scratch_init(scratch *sc, uint32_t nv)
     return sc->vertex_seen ? 0 : -1;
 }
 
-static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_material, const simplify_options *o)
+static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, const simplify_options *o)
 {
     const uint32_t nv = w->vertex_count, nf = w->triangle_count;
     s->w = w;
@@ -1253,7 +1323,10 @@ static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_mater
     if (s->thread_count > MAX_THREADS) s->thread_count = MAX_THREADS;
     s->face_material = malloc(((size_t)nf + 1) * sizeof *s->face_material);
     s->corner_vertex = malloc((3 * (size_t)nf + 1) * sizeof *s->corner_vertex);
-    s->corner_wedge = malloc((3 * (size_t)nf + 1) * sizeof *s->corner_wedge);
+    /* taken over, not copied: the weld's wedges are where the corners start,
+     * and nothing else reads them (simplify.h) */
+    s->corner_wedge = w->triangle_wedges;
+    w->triangle_wedges = NULL;
     s->corner_next = malloc((3 * (size_t)nf + 1) * sizeof *s->corner_next);
     s->face_alive = malloc((size_t)nf + 1);
     s->face_bound = calloc((size_t)nf + 1, sizeof *s->face_bound);
@@ -1283,7 +1356,6 @@ static int sim_init(sim *s, const weld_result *w, const int64_t *primitive_mater
         s->face_material[f] = m < 0 ? -1 : (int32_t)(m > INT32_MAX ? INT32_MAX : m);
     }
     memcpy(s->corner_vertex, w->triangle_vertices, 3 * (size_t)nf * sizeof *s->corner_vertex);
-    memcpy(s->corner_wedge, w->triangle_wedges, 3 * (size_t)nf * sizeof *s->corner_wedge);
     memset(s->face_alive, 1, nf);
     memset(s->vertex_alive, 1, nv);
     memset(s->vertex_first, 0xff, ((size_t)nv + 1) * sizeof *s->vertex_first);
@@ -1341,7 +1413,7 @@ static int snapshot_level(sim *s, simplify_level *level)
     return 0;
 }
 
-int simplify_mesh(const weld_result *w, const int64_t *primitive_material, const simplify_options *options,
+int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simplify_options *options,
                   simplify_result *out, lp_error *err)
 {
     memset(out, 0, sizeof *out);

@@ -92,8 +92,12 @@ typedef struct simplify_result {
 /* primitive_material[p]: the material of the mesh's primitive p (-1: none);
  * faces are certified only against original triangles of their material.
  * Returns LP_OK, LP_INVALID (out of memory) or LP_PROMISE (the invariant
- * checker found a broken invariant: a bug, reported rather than written). */
-int simplify_mesh(const weld_result *w, const int64_t *primitive_material, const simplify_options *options,
+ * checker found a broken invariant: a bug, reported rather than written).
+ * w is read only, except that its triangle_wedges array is taken over (the
+ * simplifier's corner wedges start as it and change in place; a copy would
+ * cost 12 bytes a triangle at the memory peak): w->triangle_wedges is NULL
+ * afterwards, whatever the result. The levels' wedges are in out. */
+int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simplify_options *options,
                   simplify_result *out, lp_error *err);
 void simplify_result_free(simplify_result *r);
 

@@ -672,6 +672,12 @@ void weld_free(weld_result *w)
     memset(w, 0, sizeof *w);
 }
 
+void weld_release_edge_opposite(weld_result *w)
+{
+    free(w->edge_opposite);
+    w->edge_opposite = NULL;
+}
+
 /* Rows: vertex kind. Columns: the edge it would collapse along, as
  * 0 manifold interior, 1 seam, 2 border, 3 non-manifold. */
 static const uint8_t collapse_rule[WELD_KIND_COUNT][4] = {

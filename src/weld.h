@@ -150,10 +150,11 @@ typedef struct weld_result {
 
     /* triangles (corner 3t + c) and their edges (edge 3t + e, corner e -> e + 1) */
     uint32_t triangle_count;
-    uint32_t *triangle_wedges;    /* 3 per triangle */
+    uint32_t *triangle_wedges;    /* 3 per triangle (simplify_mesh takes it over: NULL afterwards) */
     uint32_t *triangle_vertices;  /* 3 per triangle, = wedge_vertex[triangle_wedges[..]] */
     uint32_t *triangle_primitive; /* 1 per triangle */
-    uint32_t *edge_opposite;      /* 3 per triangle: opposite edge or a WELD_EDGE_IS_ marker */
+    uint32_t *edge_opposite;      /* 3 per triangle: opposite edge or a WELD_EDGE_IS_ marker
+                                     (NULL after weld_release_edge_opposite) */
     uint8_t *edge_flags;          /* 3 per triangle: WELD_FLAG_ bits */
 
     weld_stats stats;
@@ -170,6 +171,13 @@ int weld_build(const scene_mesh *mesh, weld_result *out, lp_error *err);
 
 /* Frees every array of `w` and zeroes it. Safe on a zeroed or freed result. */
 void weld_free(weld_result *w);
+
+/* Frees edge_opposite and sets it to NULL; everything else stays. The weld
+ * needs the pairing to find fans and seams (edge_flags and the vertex kinds
+ * keep what it found); the simplifier and the writers never read it, so a
+ * caller that keeps the result alive through simplification drops it first
+ * (12 bytes a triangle). Safe to call twice. */
+void weld_release_edge_opposite(weld_result *w);
 
 /* The collapse rule table: may a vertex of kind `kind` be collapsed (half-
  * edge collapse, the vertex disappears into the other end) along an edge

@@ -342,6 +342,8 @@ static void test_invalid_arguments(void)
     CHECK(facegrid_init(&g, NAN, 10) == FACEGRID_ERROR_INVALID_ARGUMENT, "NaN cell");
     facegrid_free(&g);
     CHECK(facegrid_init(&g, 1e-320, 10) == FACEGRID_ERROR_INVALID_ARGUMENT, "cell too small to invert");
+    CHECK(facegrid_init(&g, 1.0, FACEGRID_MAX_FACES + 1) == FACEGRID_ERROR_INVALID_ARGUMENT, "too many faces");
+    CHECK(facegrid_memory(&g) == 0, "nothing allocated for too many faces");
     facegrid_free(&g);
     CHECK(facegrid_init(&g, 1.0, 10) == FACEGRID_OK, "init");
     double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};

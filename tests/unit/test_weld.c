@@ -968,6 +968,13 @@ static void test_deterministic(void)
     if (weld_ok(&m1, &w1) && weld_ok(&m2, &w2) && weld_ok(&m1, &w3)) {
         CHECK(results_equal(&w1, &w2), "same input at another address, same output");
         CHECK(results_equal(&w1, &w3), "same input twice, same output");
+        /* dropping the edge pairing leaves everything else as it was */
+        weld_release_edge_opposite(&w3);
+        CHECK(w3.edge_opposite == NULL, "edge_opposite released");
+        weld_release_edge_opposite(&w3);
+        w3.edge_opposite = w1.edge_opposite; /* borrowed for the comparison only */
+        CHECK(results_equal(&w1, &w3), "the rest unchanged after the release");
+        w3.edge_opposite = NULL;
     }
     weld_free(&w1);
     weld_free(&w2);

@@ -412,6 +412,7 @@ struct gltf_doc {
     std::vector<std::string> names[GLTF_KIND_COUNT];
     std::vector<std::string> ext_used, ext_required;
     std::vector<std::string> external_files; // files the load read besides the input (gltf_external_file)
+    bool binary_released = false; // gltf_release_binary was called: no bytes to read or write
 };
 
 namespace {
@@ -1050,6 +1051,20 @@ extern "C" int gltf_load_memory(const void *bytes, size_t size, const char *path
 
 extern "C" void gltf_free(gltf_doc *doc) { delete doc; }
 
+extern "C" void gltf_release_binary(gltf_doc *doc)
+{
+    // swap with an empty vector: clear() would keep the capacity
+    for (auto &b : doc->model.buffers) std::vector<unsigned char>().swap(b.data);
+    for (auto &i : doc->model.images) std::vector<unsigned char>().swap(i.image);
+    doc->external_images.clear();
+    for (auto &v : doc->views) {
+        std::vector<uint8_t>().swap(v.owned);
+        v.ptr = nullptr;
+        v.size = 0;
+    }
+    doc->binary_released = true;
+}
+
 extern "C" size_t gltf_external_file_count(const gltf_doc *doc) { return doc->external_files.size(); }
 
 extern "C" const char *gltf_external_file(const gltf_doc *doc, size_t index)
@@ -1072,7 +1087,7 @@ extern "C" const char *gltf_name(const gltf_doc *doc, gltf_kind kind, size_t ind
 
 extern "C" int gltf_get_view(const gltf_doc *doc, size_t index, gltf_view *out)
 {
-    if (index >= doc->views.size()) return -1;
+    if (index >= doc->views.size() || doc->binary_released) return -1;
     out->data = doc->views[index].ptr;
     out->byte_length = doc->views[index].size;
     out->byte_stride = u64(doc->json["bufferViews"][index], "byteStride", 0);
@@ -1534,6 +1549,10 @@ extern "C" int gltf_serialize(const gltf_doc *doc, const char *out_path, gltf_ou
     *files = nullptr;
     *file_count = 0;
     std::vector<gltf_out_file> out;
+    if (doc->binary_released) {
+        snprintf(err, errlen, "the document's binary data was released (gltf_release_binary)");
+        return GLTF_IO;
+    }
     try {
         serialize(doc, out_path, out);
     } catch (const Failure &f) {

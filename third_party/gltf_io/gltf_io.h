@@ -53,6 +53,13 @@ int gltf_load(const char *path, const gltf_load_options *options, gltf_doc **out
 int gltf_load_memory(const void *bytes, size_t size, const char *path, const gltf_load_options *options,
                      gltf_doc **out, char *err, size_t errlen);
 void gltf_free(gltf_doc *doc);
+/* Frees every byte of binary data the document holds (buffers, images, decoded
+ * views), keeping the JSON and the records: counts, names, accessors,
+ * primitives, nodes and scenes still read as before. For a caller that has
+ * copied out what it needs (the scene model's float streams and indices) and
+ * writes no glTF: afterwards gltf_get_view returns -1 and gltf_serialize
+ * fails. */
+void gltf_release_binary(gltf_doc *doc);
 
 /* The files the load read besides `path` itself: every buffer and image named
  * by a uri that is not a data: URI, as a path the process can open (the

@@ -1,0 +1,96 @@
+/* test_scene_release.c - what `lodpipe simplify` frees before it simplifies
+ * (scene.h scene_release_mesh_data, gltf_io.h gltf_release_binary): the
+ * arrays go, the records stay, and nothing reads or writes the released
+ * bytes afterwards (gltf_get_view refuses, gltf_serialize fails). ASan checks
+ * that scene_free after a release frees nothing twice and leaks nothing. */
+#include "check.h"
+#include "scene.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+/* One triangle (float positions, uint16 indices) with material 0, its buffer
+ * in a data: URI. */
+static const char TRIANGLE_GLTF[] =
+    "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+    "\"meshes\":[{\"name\":\"tri\",\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"material\":0}]}],"
+    "\"materials\":[{\"name\":\"m\"}],"
+    "\"buffers\":[{\"byteLength\":44,\"uri\":\"data:application/octet-stream;base64,"
+    "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA=\"}],"
+    "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":36},{\"buffer\":0,\"byteOffset\":36,\"byteLength\":6}],"
+    "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]},"
+    "{\"bufferView\":1,\"componentType\":5123,\"count\":3,\"type\":\"SCALAR\"}]}";
+
+static int load_triangle(scene *s)
+{
+    lp_error err = {0, ""};
+    int rc = scene_load_memory(TRIANGLE_GLTF, sizeof TRIANGLE_GLTF - 1, "triangle.gltf", NULL, s, &err);
+    CHECK(rc == LP_OK, "load: %s", err.msg);
+    return rc;
+}
+
+static void test_loaded_as_expected(void)
+{
+    scene s;
+    if (load_triangle(&s)) return;
+    const scene_primitive *p = &s.meshes[0].primitives[0];
+    CHECK(s.mesh_count == 1 && s.meshes[0].primitive_count == 1, "one mesh, one primitive");
+    CHECK(p->vertex_count == 3 && p->triangle_count == 1 && p->positions && p->triangles, "one triangle");
+    CHECK(p->positions[3] == 1.0f && p->positions[7] == 1.0f, "positions read");
+    CHECK(p->triangles[0] == 0 && p->triangles[1] == 1 && p->triangles[2] == 2, "indices read");
+    gltf_view view;
+    CHECK(gltf_get_view(s.doc, 0, &view) == 0 && view.byte_length == 36 && view.data, "view readable");
+    scene_free(&s);
+}
+
+static void test_release_mesh_data(void)
+{
+    scene s;
+    if (load_triangle(&s)) return;
+    scene_release_mesh_data(&s, 0);
+    const scene_mesh *m = &s.meshes[0];
+    const scene_primitive *p = &m->primitives[0];
+    CHECK(!p->streams && p->stream_count == 0 && !p->positions && p->vertex_count == 0, "streams released");
+    CHECK(!p->triangles && p->triangle_count == 0, "triangles released");
+    CHECK(strcmp(m->name, "tri") == 0 && p->material == 0 && p->mode == 4, "records kept");
+    CHECK(m->triangle_count == 1 && m->instance_count == 1 && m->has_bbox && m->diagonal > 1.41 && m->diagonal < 1.42,
+          "mesh summary kept: %llu triangles, diagonal %g", (unsigned long long)m->triangle_count, m->diagonal);
+    scene_release_mesh_data(&s, 0); /* twice: nothing left to free */
+    scene_release_mesh_data(&s, 7); /* out of range: nothing happens */
+    scene_free(&s);
+}
+
+static void test_release_binary(void)
+{
+    scene s;
+    if (load_triangle(&s)) return;
+    const size_t views = gltf_count(s.doc, GLTF_BUFFER_VIEWS), accessors = gltf_count(s.doc, GLTF_ACCESSORS);
+    gltf_release_binary(s.doc);
+    gltf_view view;
+    CHECK(gltf_get_view(s.doc, 0, &view) == -1 && gltf_get_view(s.doc, 1, &view) == -1, "views refused");
+    CHECK(gltf_count(s.doc, GLTF_BUFFER_VIEWS) == views && gltf_count(s.doc, GLTF_ACCESSORS) == accessors,
+          "counts kept");
+    CHECK(strcmp(gltf_name(s.doc, GLTF_MESHES, 0), "tri") == 0 && strcmp(s.meshes[0].name, "tri") == 0, "names kept");
+    gltf_accessor acc;
+    CHECK(gltf_get_accessor(s.doc, 0, &acc) == 0 && acc.count == 3 && acc.components == 3, "accessor records kept");
+    gltf_primitive prim;
+    CHECK(gltf_get_primitive(s.doc, 0, 0, &prim) == 0 && prim.indices == 1 && prim.attribute_count == 1,
+          "primitive records kept");
+    CHECK(s.meshes[0].primitives[0].positions[3] == 1.0f, "the scene's own copy is untouched");
+    gltf_out_file *files = NULL;
+    size_t file_count = 0;
+    char msg[256] = "";
+    CHECK(gltf_serialize(s.doc, "out.glb", &files, &file_count, msg, sizeof msg) == GLTF_IO && !files &&
+              file_count == 0 && strstr(msg, "released"),
+          "serialize refuses: %s", msg);
+    gltf_release_binary(s.doc); /* twice */
+    scene_free(&s);
+}
+
+int main(void)
+{
+    RUN(test_loaded_as_expected);
+    RUN(test_release_mesh_data);
+    RUN(test_release_binary);
+    return check_summary();
+}
