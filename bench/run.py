@@ -916,6 +916,8 @@ def main():
         for part, skipped in (("quality", args.skip_quality), ("speed", args.skip_speed)):
             if skipped and part in previous:
                 results[part] = previous[part]
+                if part == "quality" and previous.get("peer_reused_from"):
+                    results["peer_reused_from"] = previous["peer_reused_from"]
                 results.setdefault("reused", {})[part] = previous.get("machine", {}).get("lodpipe_mtime")
                 COMMANDS.update({k: v for k, v in previous.get("commands", {}).items() if k not in COMMANDS})
     if args.reuse_peer and not args.skip_quality:
