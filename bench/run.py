@@ -710,9 +710,11 @@ def report(results, args):
                   "counts.")
                 w("")
             w("(meshopt's level 1 is its 1 %% single-level answer above. \"its measured H\" is the CGAL lower "
-              "bound with tolerance eps/100. %s bisection: relative resolution %g, at most %d probes per search; "
-              "measuring took %.0f s of the %.0f s spent on this model.)"
-              % (q["model"], q["tol"], args.max_probes, q["probe_seconds"], q["seconds"]))
+              "bound with tolerance eps/100. %s bisection: relative resolution %g, at most %d probes per search; %s)"
+              % (q["model"], q["tol"], args.max_probes,
+                 "its probes were measured in the run the figures were reused from (%.0f s there); this run spent "
+                 "%.0f s on lodpipe's side of this model." % (q["probe_seconds"], q["seconds"]) if q.get("peer_reused")
+                 else "measuring took %.0f s of the %.0f s spent on this model." % (q["probe_seconds"], q["seconds"])))
             w("")
             if lpc and lpc["rc"] != 0:
                 w("lodpipe's chain failed: `%s`" % lpc["stderr"].replace("`", "'"))
