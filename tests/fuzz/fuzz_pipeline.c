@@ -110,14 +110,18 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         scene_free(&s);
         return 0;
     }
-    /* The defaults of pipeline.toml, on one thread. */
+    /* The defaults of pipeline.toml, on one thread (placement: below). */
     lp_config config;
     config_defaults(&config);
     double fractions[SIMPLIFY_MAX_LEVELS];
     uint32_t levels = 0;
     for (; levels < config.lod.level_count && levels < SIMPLIFY_MAX_LEVELS; ++levels)
         fractions[levels] = config.lod.levels[levels] / 100.0;
-    const simplify_options opt = {fractions, levels, 1, config.lod.flip_cos, 0, config.lod.strict_intersections};
+    /* the input's last byte chooses the placement, so both kinds of collapse
+     * are fuzzed: odd = lod.placement "optimal" on every level */
+    const uint32_t full_edge = size && (data[size - 1] & 1u) ? (uint32_t)((1ull << levels) - 1u) : 0;
+    const simplify_options opt = {fractions, levels, 1, config.lod.flip_cos, 0, config.lod.strict_intersections,
+                                  full_edge};
     const lodchain_options chain = {{config.switching.pixel_error, config.switching.viewport_height,
                                      config.switching.fov_y},
                                     config.lod.min_reduction, 0, NULL};
