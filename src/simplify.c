@@ -261,9 +261,10 @@ static int classify_neighbours(const sim *s, scratch *sc, uint32_t u)
  * the quadric's minimizer, on the segment [u, x] when the minimizer is
  * ill-defined or farther than the edge's length from its middle, rounded to
  * float as the output stores it; *full is cleared when that gains nothing
- * over x. The order stays the half-edge one: measured on the bunny, ordering
- * by the placed cost gave more triangles at 1/64..1/2 % (e.g. 46,265 against
- * 45,653 at 1/64 %, 3,953 against 3,859 at 1/8 %). */
+ * over x. The order stays the half-edge one: measured on the bunny (with
+ * placement from the start of a level, before it waited for the half-edge
+ * passes), ordering by the placed cost gave more triangles at 1/64..1/2 %
+ * (e.g. 46,265 against 45,653 at 1/64 %, 3,953 against 3,859 at 1/8 %). */
 static double edge_cost(const sim *s, uint32_t u, uint32_t x, int *full, double place[3])
 {
     quadric q = s->quadrics[u];
