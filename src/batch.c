@@ -937,17 +937,8 @@ static void print_table(const batch *b, const totals *t, double wall)
 
 static int make_folders(const char *path)
 {
-    char *p = strdup(path);
-    if (!p) return -1;
-    int rc = 0;
-    for (char *s = strchr(p + 1, '/'); s && !rc; s = strchr(s + 1, '/')) {
-        *s = 0;
-        if (mkdir(p, 0777) != 0 && errno != EEXIST) rc = -1;
-        *s = '/';
-    }
-    if (!rc && mkdir(p, 0777) != 0 && errno != EEXIST) rc = -1;
-    free(p);
-    return rc;
+    if (make_parent_folders(path) != 0) return -1;
+    return mkdir(path, 0777) != 0 && errno != EEXIST ? -1 : 0;
 }
 
 static int prepare(batch *b, lp_error *err)

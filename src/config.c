@@ -127,7 +127,6 @@ static uint32_t *set_field(lp_config *c, const key_spec *k)
     return (uint32_t *)((char *)c + k->offset);
 }
 
-
 /* v as text that reads back to exactly v: whole numbers below 2^53 as
  * integers ("1080"), others in the shortest "%.Ng" ("0.1", "1e-05"); -0 is
  * written as 0. Valid in TOML and JSON alike (v is finite). */

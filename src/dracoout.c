@@ -652,9 +652,7 @@ int dracoout_write_mesh(scene *s, uint32_t m, const lodchain_summary *chain, con
         for (uint32_t p = 0; p < gltf_primitive_count(s->doc, lod) && !rc; ++p) {
             gltf_primitive g;
             gltf_get_primitive(s->doc, lod, p, &g);
-            int64_t position = -1;
-            for (size_t a = 0; a < g.attribute_count; ++a)
-                if (strcmp(g.attributes[a].name, "POSITION") == 0) position = g.attributes[a].accessor;
+            const int64_t position = gltf_primitive_attribute(&g, "POSITION");
             if (g.mode != 4 || g.indices < 0 || position < 0) continue; /* points, lines, skipped: as they are */
             gltf_accessor acc;
             gltf_get_accessor(s->doc, (size_t)position, &acc);

@@ -382,10 +382,8 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
         if (set_json(s->doc, err, value, "/meshes/%lld/primitives/%u/indices", (long long)lod, written)) return -1;
         if (level->positions) {
             gltf_primitive g;
-            int64_t base = -1;
             gltf_get_primitive(s->doc, m, p, &g);
-            for (size_t at = 0; at < g.attribute_count; ++at)
-                if (strcmp(g.attributes[at].name, "POSITION") == 0) base = g.attributes[at].accessor;
+            const int64_t base = gltf_primitive_attribute(&g, "POSITION");
             int64_t moved = base < 0 ? -2 : level_positions(s->doc, pr, p, base, w, level, new_of_old[p]);
             if (moved == -1) return lp_fail(err, LP_INVALID, "out of memory"), -1;
             snprintf(value, sizeof value, "%lld", (long long)moved);

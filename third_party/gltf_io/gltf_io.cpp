@@ -1136,6 +1136,13 @@ extern "C" int gltf_get_primitive(const gltf_doc *doc, size_t mesh, size_t prim,
     return 0;
 }
 
+extern "C" int64_t gltf_primitive_attribute(const gltf_primitive *g, const char *name)
+{
+    for (size_t a = 0; a < g->attribute_count; ++a)
+        if (strcmp(g->attributes[a].name, name) == 0) return g->attributes[a].accessor;
+    return -1;
+}
+
 extern "C" int gltf_get_node(const gltf_doc *doc, size_t index, gltf_node *out)
 {
     const ojson &nodes = array_of(doc->json, "nodes");

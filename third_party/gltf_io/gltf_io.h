@@ -125,6 +125,8 @@ typedef struct gltf_primitive {
 } gltf_primitive;
 size_t gltf_primitive_count(const gltf_doc *doc, size_t mesh);
 int gltf_get_primitive(const gltf_doc *doc, size_t mesh, size_t prim, gltf_primitive *out);
+/* The accessor of g's attribute `name` ("POSITION", ...), or -1 when g has none. */
+int64_t gltf_primitive_attribute(const gltf_primitive *g, const char *name);
 
 typedef struct gltf_node {
     int64_t mesh, skin, camera; /* -1: none */
