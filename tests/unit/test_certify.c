@@ -746,8 +746,9 @@ static uint32_t tent(cert_tri faces[4], vec3d c, double h, int skip, double rais
 /* (b) by overlay. One big original triangle in z = 0; the level is the tent
  * h = 0.4 eps above it, whose four fold lines cross the triangle. Every
  * point of t is 0.4 eps from the tent, but a piece straddling a fold line is
- * within eps of no SINGLE face unless it is smaller than ~eps, which depth-4
- * subdivision (pieces of 1/16 of a unit triangle, eps = 1e-3) never reaches:
+ * within eps of no SINGLE face unless it is smaller than ~eps, which
+ * subdivision to CERT_MAX_DEPTH = 6 (pieces of 1/64 of a unit triangle,
+ * eps = 1e-3) never reaches:
  * only the overlay (pieces cut along the projected fold lines) proves it.
  * Then the ways it must fail: a face missing (a real hole: sampled > eps),
  * the tent's top lifted beyond eps, the tent turned over; all of it also at
