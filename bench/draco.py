@@ -24,6 +24,7 @@ usage: python3 bench/draco.py [--assets SUBSTR,...] [--lodpipe PATH] [--out benc
 import argparse
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -96,6 +97,14 @@ def gltf_transform(src, dst):
                   "--quantize-generic", str(BITS["generic"])])[0]
 
 
+def triangle_count(lodpipe, path, work):
+    """Triangles in path's meshes, as `lodpipe inspect` counts them after `lodpipe convert` decodes any Draco."""
+    plain = os.path.join(work, "decoded.glb")
+    timed(["nice", lodpipe, "convert", path, plain, "-q"])
+    _, out = timed([lodpipe, "inspect", plain])
+    return sum(int(m) for m in re.findall(r"^  primitive \d+: .*?, (\d+) triangles", out, re.M))
+
+
 def measure(lodpipe, rel, path, work):
     d = os.path.join(work, rel.replace("/", "_"))
     os.makedirs(d, exist_ok=True)
@@ -107,6 +116,11 @@ def measure(lodpipe, rel, path, work):
     row["convert_draco"] = file_set_bytes(o("convert_draco.glb"))
     row["t_gt_lod0"] = gltf_transform(path, o("gt_lod0.glb"))
     row["gt_lod0"] = file_set_bytes(o("gt_lod0.glb"))
+    # edgebreaker cannot hold a triangle with a repeated index: gltf-transform drops such triangles,
+    # lodpipe keeps them (sequential connectivity), which can cost it bytes
+    row["triangles"] = triangle_count(lodpipe, path, d)
+    row["lost_lodpipe"] = row["triangles"] - triangle_count(lodpipe, o("convert_draco.glb"), d)
+    row["lost_gt"] = row["triangles"] - triangle_count(lodpipe, o("gt_lod0.glb"), d)
     row["t_chain"], _ = timed(["nice", lodpipe, path, "-o", o("chain.glb"), "-q"])
     row["chain"] = file_set_bytes(o("chain.glb"))
     row["t_chain_draco"], summary = timed(["nice", lodpipe, path, "-o", o("chain_draco.glb"), "--draco", "--json", "-q"])
@@ -143,20 +157,25 @@ def render(rows, failures, started, lodpipe):
     lines.append("- ratio = lodpipe --draco bytes / gltf-transform bytes (below 1: lodpipe smaller). A chain with Draco "
                  "cannot share vertices between levels, so each level carries its own (compressed) copy of the "
                  "vertices it uses.")
+    lines.append("- LOD0 triangles: the input's, counted by `lodpipe inspect`; lost: how many fewer the Draco file "
+                 "decodes to (decoded by `lodpipe convert`). Draco's edgebreaker cannot hold a triangle with a "
+                 "repeated index; lodpipe keeps such triangles by encoding their primitive with sequential "
+                 "connectivity (larger), gltf-transform's edgebreaker drops them.")
     lines.append("")
     lines.append("| asset | input KiB | LOD0 KiB | LOD0 draco KiB | gltf-transform LOD0 KiB | ratio | chain KiB | "
-                 "chain draco KiB | gltf-transform chain KiB | ratio | bits raised |")
-    lines.append("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+                 "chain draco KiB | gltf-transform chain KiB | ratio | bits raised | LOD0 triangles | lost by lodpipe | "
+                 "lost by gltf-transform |")
+    lines.append("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     tot = {k: 0 for k in ("input", "convert", "convert_draco", "gt_lod0", "chain", "chain_draco", "gt_chain")}
     for r in rows:
         for k in tot:
             tot[k] += r[k]
-        lines.append("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %d |" % (
+        lines.append("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %d | %d | %d | %d |" % (
             r["asset"], kb(r["input"]), kb(r["convert"]), kb(r["convert_draco"]), kb(r["gt_lod0"]),
             ratio(r["convert_draco"], r["gt_lod0"]), kb(r["chain"]), kb(r["chain_draco"]), kb(r["gt_chain"]),
-            ratio(r["chain_draco"], r["gt_chain"]), r["raised"]))
+            ratio(r["chain_draco"], r["gt_chain"]), r["raised"], r["triangles"], r["lost_lodpipe"], r["lost_gt"]))
     if rows:
-        lines.append("| **all** | %s | %s | %s | %s | %s | %s | %s | %s | %s | |" % (
+        lines.append("| **all** | %s | %s | %s | %s | %s | %s | %s | %s | %s | | | | |" % (
             kb(tot["input"]), kb(tot["convert"]), kb(tot["convert_draco"]), kb(tot["gt_lod0"]),
             ratio(tot["convert_draco"], tot["gt_lod0"]), kb(tot["chain"]), kb(tot["chain_draco"]),
             kb(tot["gt_chain"]), ratio(tot["chain_draco"], tot["gt_chain"])))
