@@ -39,7 +39,7 @@
  * lies near eps from the original along a fold, and only smaller pieces find a
  * single face each. Measured: bunny at 1/64 % with placement 45,573 -> 43,590
  * triangles, fandisk at 1/4 % 446 -> 302, same run time within noise (1.1M
- * chain 33-37 s either way); depth 8 helped fandisk further but doubled its
+ * chain 31-38 s either way); depth 8 helped fandisk further but doubled its
  * time. */
 #define CERT_MAX_DEPTH 6
 #define CERT_MAX_WITNESSES 4
