@@ -97,11 +97,9 @@ def gltf_transform(src, dst):
                   "--quantize-generic", str(BITS["generic"])])[0]
 
 
-def triangle_count(lodpipe, path, work):
-    """Triangles in path's meshes, as `lodpipe inspect` counts them after `lodpipe convert` decodes any Draco."""
-    plain = os.path.join(work, "decoded.glb")
-    timed(["nice", lodpipe, "convert", path, plain, "-q"])
-    _, out = timed([lodpipe, "inspect", plain])
+def triangle_count(lodpipe, path):
+    """Triangles in path's meshes as `lodpipe inspect` counts them (its load decodes Draco streams)."""
+    _, out = timed([lodpipe, "inspect", path])
     return sum(int(m) for m in re.findall(r"^  primitive \d+: .*?, (\d+) triangles", out, re.M))
 
 
@@ -118,9 +116,9 @@ def measure(lodpipe, rel, path, work):
     row["gt_lod0"] = file_set_bytes(o("gt_lod0.glb"))
     # edgebreaker cannot hold a triangle with a repeated index: gltf-transform drops such triangles,
     # lodpipe keeps them (sequential connectivity), which can cost it bytes
-    row["triangles"] = triangle_count(lodpipe, path, d)
-    row["lost_lodpipe"] = row["triangles"] - triangle_count(lodpipe, o("convert_draco.glb"), d)
-    row["lost_gt"] = row["triangles"] - triangle_count(lodpipe, o("gt_lod0.glb"), d)
+    row["triangles"] = triangle_count(lodpipe, path)
+    row["lost_lodpipe"] = row["triangles"] - triangle_count(lodpipe, o("convert_draco.glb"))
+    row["lost_gt"] = row["triangles"] - triangle_count(lodpipe, o("gt_lod0.glb"))
     row["t_chain"], _ = timed(["nice", lodpipe, path, "-o", o("chain.glb"), "-q"])
     row["chain"] = file_set_bytes(o("chain.glb"))
     row["t_chain_draco"], summary = timed(["nice", lodpipe, path, "-o", o("chain_draco.glb"), "--draco", "--json", "-q"])
@@ -158,7 +156,7 @@ def render(rows, failures, started, lodpipe):
                  "cannot share vertices between levels, so each level carries its own (compressed) copy of the "
                  "vertices it uses.")
     lines.append("- LOD0 triangles: the input's, counted by `lodpipe inspect`; lost: how many fewer the Draco file "
-                 "decodes to (decoded by `lodpipe convert`). Draco's edgebreaker cannot hold a triangle with a "
+                 "decodes to (`lodpipe inspect` decodes it). Draco's edgebreaker cannot hold a triangle with a "
                  "repeated index; lodpipe keeps such triangles by encoding their primitive with sequential "
                  "connectivity (larger), gltf-transform's edgebreaker drops them.")
     lines.append("")
