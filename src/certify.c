@@ -24,6 +24,109 @@ static void triangle_of(const cert_original *o, uint32_t t, vec3d out[3])
     for (int k = 0; k < 3; ++k) out[k] = vertex_of(o, o->triangles[3 * (size_t)t + k]);
 }
 
+/* The ball, normal cone and material of cluster c (its range set). */
+static void describe_cluster(const cert_original *o, cert_cluster_info *c)
+{
+    const uint32_t *order = o->tree.triangle_order + c->first;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    double axis[3] = {0.0, 0.0, 0.0};
+    int real = 0;
+    c->material = o->material[order[0]];
+    for (uint32_t i = 0; i < c->count; ++i) {
+        const uint32_t t = order[i];
+        if (o->material[t] != c->material) c->material = CERT_MIXED;
+        for (int k = 0; k < 3; ++k)
+            for (int a = 0; a < 3; ++a) {
+                double x = o->positions[3 * (size_t)o->triangles[3 * (size_t)t + k] + a];
+                lo[a] = fmin(lo[a], x);
+                hi[a] = fmax(hi[a], x);
+            }
+        if (o->degenerate[t]) continue; /* a segment needs no agreeing normal (certify.h) */
+        real = 1;
+        for (int a = 0; a < 3; ++a) axis[a] += o->normals[3 * (size_t)t + a];
+    }
+    double r2 = 0.0;
+    for (int a = 0; a < 3; ++a) c->centre[a] = 0.5 * (lo[a] + hi[a]);
+    for (uint32_t i = 0; i < c->count; ++i)
+        for (int k = 0; k < 3; ++k) {
+            const float *x = o->positions + 3 * (size_t)o->triangles[3 * (size_t)order[i] + k];
+            double d2 = 0.0;
+            for (int a = 0; a < 3; ++a) d2 += (x[a] - c->centre[a]) * (x[a] - c->centre[a]);
+            r2 = fmax(r2, d2);
+        }
+    c->radius = sqrt(r2) * (1.0 + 1e-12);
+    const double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+    c->cone_sin = 2.0; /* no cone */
+    if (!real) {
+        c->cone_sin = -1.0; /* every triangle degenerate: any face's normal will do */
+        c->axis[0] = 1.0;
+        c->axis[1] = c->axis[2] = 0.0;
+    } else if (len > 0.0 && isfinite(len)) {
+        double m = 1.0;
+        for (int a = 0; a < 3; ++a) c->axis[a] = axis[a] / len;
+        for (uint32_t i = 0; i < c->count; ++i) {
+            const uint32_t t = order[i];
+            if (o->degenerate[t]) continue;
+            const double *n = o->normals + 3 * (size_t)t;
+            m = fmin(m, n[0] * c->axis[0] + n[1] * c->axis[1] + n[2] * c->axis[2]);
+        }
+        /* n . axis >= m = cos(theta): a face normal g agrees with all of them
+         * when angle(axis, g) < 90 degrees - theta, i.e. axis . g > sin(theta);
+         * the slack inside the root covers the cancellation in 1 - m^2 */
+        if (m > 1e-6) c->cone_sin = sqrt(fmax(0.0, 1.0 - m * m) + 1e-14) + 1e-9;
+    }
+}
+
+/* Clusters: the maximal BVH subtrees of at most CERT_CLUSTER_MAX triangles
+ * (depth first, so the triangles of a subtree are one run of the order). */
+static int build_clusters(cert_original *o)
+{
+    const bvh *tree = &o->tree;
+    o->cluster_of = malloc(((size_t)o->triangle_count + 1) * sizeof *o->cluster_of);
+    uint32_t *below = malloc(((size_t)tree->node_count + 1) * sizeof *below);
+    uint32_t *first = malloc(((size_t)tree->node_count + 1) * sizeof *first);
+    o->clusters = malloc(((size_t)o->triangle_count + 1) * sizeof *o->clusters);
+    if (!o->cluster_of || !below || !first || !o->clusters) {
+        free(below);
+        free(first);
+        return -1;
+    }
+    /* children come after their parent in the node array */
+    for (uint32_t i = tree->node_count; i-- > 0;) {
+        const bvh_node *n = &tree->nodes[i];
+        if (n->count) {
+            below[i] = n->count;
+            first[i] = n->offset;
+        } else {
+            below[i] = below[i + 1] + below[n->offset];
+            first[i] = first[i + 1];
+        }
+    }
+    uint32_t stack[BVH_MAX_DEPTH + 2], depth = 0;
+    o->cluster_count = 0;
+    if (tree->node_count) stack[depth++] = 0;
+    while (depth) {
+        const uint32_t i = stack[--depth];
+        const bvh_node *n = &tree->nodes[i];
+        if (below[i] > CERT_CLUSTER_MAX && !n->count) {
+            stack[depth++] = n->offset; /* right after left: the runs come out in order */
+            stack[depth++] = i + 1;
+            continue;
+        }
+        cert_cluster_info *c = &o->clusters[o->cluster_count];
+        c->first = first[i];
+        c->count = below[i];
+        for (uint32_t k = 0; k < c->count; ++k) o->cluster_of[tree->triangle_order[c->first + k]] = o->cluster_count;
+        describe_cluster(o, c);
+        o->cluster_count++;
+    }
+    free(below);
+    free(first);
+    cert_cluster_info *shrunk = realloc(o->clusters, ((size_t)o->cluster_count + 1) * sizeof *o->clusters);
+    if (shrunk) o->clusters = shrunk;
+    return 0;
+}
+
 int cert_original_init(cert_original *o, const float *positions, uint32_t vertex_count,
                        const uint32_t *triangles, uint32_t triangle_count, const int32_t *material,
                        const uint32_t *vertex_offsets, const uint32_t *vertex_triangles)
@@ -49,7 +152,8 @@ int cert_original_init(cert_original *o, const float *positions, uint32_t vertex
         o->normals[3 * (size_t)t + 1] = n.y;
         o->normals[3 * (size_t)t + 2] = n.z;
     }
-    if (bvh_build(&o->tree, positions, vertex_count, triangles, triangle_count) != BVH_OK) {
+    if (bvh_build(&o->tree, positions, vertex_count, triangles, triangle_count) != BVH_OK ||
+        build_clusters(o) != 0) {
         cert_original_free(o);
         return -1;
     }
@@ -60,6 +164,8 @@ void cert_original_free(cert_original *o)
 {
     free(o->normals);
     free(o->degenerate);
+    free(o->clusters);
+    free(o->cluster_of);
     bvh_free(&o->tree);
     memset(o, 0, sizeof *o);
 }
@@ -501,4 +607,51 @@ int cert_cover_within(const cert_original *o, uint32_t t, const cert_tri *faces,
     int ok = piece_b(&s, p, 0);
     *bound = s.bound;
     return ok;
+}
+
+/* ---- (b) for a whole cluster --------------------------------------------------- */
+
+static double cluster_within(const cert_original *o, const cert_cluster_info *c, const cert_tri *f, double accept)
+{
+    if (f->degenerate || f->material != c->material || c->material == CERT_MIXED) return INFINITY;
+    if (!(c->axis[0] * f->n[0] + c->axis[1] * f->n[1] + c->axis[2] * f->n[2] > c->cone_sin)) return INFINITY;
+    const vec3d centre = {c->centre[0], c->centre[1], c->centre[2]};
+    const double reach = accept + c->radius;
+    if (box_distance2(f, &centre) > reach * reach) return INFINITY; /* then every vertex is beyond accept */
+    vec3d tri[3];
+    for (int k = 0; k < 3; ++k) tri[k] = geom_vec3d_from_doubles(f->p[k]);
+    const double d = sqrt(geom_point_triangle_distance2(&centre, &tri[0], &tri[1], &tri[2], NULL));
+    if (d + c->radius <= accept) return d + c->radius;
+    double worst = 0.0;
+    const uint32_t *order = o->tree.triangle_order + c->first;
+    for (uint32_t i = 0; i < c->count; ++i)
+        for (int k = 0; k < 3; ++k) {
+            const vec3d p = vertex_of(o, o->triangles[3 * (size_t)order[i] + k]);
+            double d2 = geom_point_triangle_distance2(&p, &tri[0], &tri[1], &tri[2], NULL);
+            if (!(d2 <= accept * accept)) return INFINITY;
+            if (d2 > worst) worst = d2;
+        }
+    return sqrt(worst);
+}
+
+int cert_cluster(const cert_original *o, uint32_t c, const cert_tri *faces, uint32_t count, double eps,
+                 const uint32_t *first, uint32_t first_count, uint32_t *face, double *bound)
+{
+    const cert_cluster_info *info = &o->clusters[c];
+    const double accept = eps * (1.0 - CERT_MARGIN);
+    for (uint32_t i = 0; i < first_count + count; ++i) {
+        const cert_tri *f = i < first_count ? &faces[first[i]] : &faces[i - first_count];
+        double m = cluster_within(o, info, f, accept);
+        if (m <= accept) {
+            *face = f->id;
+            *bound = m;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+int cert_cluster_within(const cert_original *o, uint32_t c, const cert_tri *f, double limit)
+{
+    return cluster_within(o, &o->clusters[c], f, limit) <= limit;
 }

@@ -45,6 +45,20 @@
 #define CERT_MAX_WITNESSES 4
 #define CERT_MARGIN 1e-9
 
+/* Clusters of originals (registry.h): maximal subtrees of the BVH with at
+ * most CERT_CLUSTER_MAX triangles, i.e. compact runs of its triangle order. */
+#define CERT_CLUSTER_MAX 32
+
+typedef struct cert_cluster_info {
+    double centre[3], radius;  /* a ball holding every vertex of its triangles */
+    double axis[3];            /* normal cone: every real normal n has n . axis >= cos(half angle) */
+    double cone_sin;           /* sin(half angle), > 1 when there is no cone below 90 degrees */
+    uint32_t first, count;     /* tree.triangle_order[first .. first + count - 1] */
+    int32_t material;          /* shared by all its triangles; CERT_MIXED when they differ */
+} cert_cluster_info;
+
+#define CERT_MIXED INT32_MIN
+
 typedef struct cert_original {
     uint32_t triangle_count;
     const float *positions;          /* borrowed, xyz per vertex */
@@ -55,6 +69,9 @@ typedef struct cert_original {
     double *normals;                 /* owned: unit normal per triangle (0 when degenerate) */
     uint8_t *degenerate;             /* owned */
     bvh tree;
+    cert_cluster_info *clusters;     /* owned */
+    uint32_t cluster_count;
+    uint32_t *cluster_of;            /* owned: per triangle */
 } cert_original;
 
 /* Builds normals and the BVH. Returns 0, or -1 (out of memory / bad input). */
@@ -91,6 +108,23 @@ int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bou
 int cert_cover(const cert_original *o, uint32_t t, const cert_tri *faces, uint32_t count, double eps,
                const uint32_t *first, uint32_t first_count, uint32_t used[CERT_MAX_WITNESSES],
                uint32_t *used_count, double *bound);
+
+/* (b) for a whole cluster with one face: 1 when some face among
+ * faces[first[0..first_count-1]], then faces[0..count-1] in order, holds every
+ * triangle of cluster c within eps; *face receives its id and *bound the
+ * accepted value. The face must be of the cluster's material, not degenerate,
+ * and agree with every real normal of the cluster (its normal cone); then
+ * either d(centre, F) + radius <= eps (the distance is 1-Lipschitz and the
+ * ball holds the triangles), or every vertex of every triangle is within eps
+ * of F (the distance to F is convex, so a triangle is within eps when its
+ * corners are). Acceptance as in cert_cover. A mixed cluster is never
+ * certified whole. */
+int cert_cluster(const cert_original *o, uint32_t c, const cert_tri *faces, uint32_t count, double eps,
+                 const uint32_t *first, uint32_t first_count, uint32_t *face, double *bound);
+
+/* The invariant checker's re-run of cert_cluster against one face, accepting
+ * at d <= limit. */
+int cert_cluster_within(const cert_original *o, uint32_t c, const cert_tri *f, double limit);
 
 /* The invariant checker's re-run of (b): is t within `limit` (accepted as
  * d <= limit) of faces[0..count-1] (at most CERT_MAX_WITNESSES), choosing the

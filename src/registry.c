@@ -24,11 +24,13 @@ static void link_slot(registry *r, uint32_t s, uint32_t f)
     r->face_head[f] = s;
 }
 
-int registry_init(registry *r, uint32_t count)
+int registry_init(registry *r, uint32_t count, const uint32_t *cluster_of, uint32_t cluster_count)
 {
     memset(r, 0, sizeof *r);
-    const size_t slots = (size_t)count * REGISTRY_SLOTS;
+    const size_t slots = (size_t)count * REGISTRY_SLOTS + cluster_count;
     r->original_count = r->face_count = count;
+    r->cluster_count = cluster_count;
+    r->cluster_of = cluster_of;
     r->slot_face = malloc((slots + 1) * sizeof *r->slot_face);
     r->slot_next = malloc((slots + 1) * sizeof *r->slot_next);
     r->slot_prev = malloc((slots + 1) * sizeof *r->slot_prev);
@@ -64,9 +66,19 @@ void registry_set(registry *r, uint32_t t, const uint32_t *faces, uint32_t count
     for (uint32_t k = 0; k < count && k < REGISTRY_SLOTS; ++k) link_slot(r, t * REGISTRY_SLOTS + k, faces[k]);
 }
 
+void registry_set_cluster(registry *r, uint32_t c, uint32_t f)
+{
+    link_slot(r, (uint32_t)((size_t)r->original_count * REGISTRY_SLOTS + c), f);
+}
+
+void registry_clear_cluster(registry *r, uint32_t c)
+{
+    unlink_slot(r, (uint32_t)((size_t)r->original_count * REGISTRY_SLOTS + c));
+}
+
 int registry_verify(const registry *r, const uint8_t *face_alive, char *msg, size_t msg_size)
 {
-    const size_t slots = (size_t)r->original_count * REGISTRY_SLOTS;
+    const size_t slots = (size_t)r->original_count * REGISTRY_SLOTS + r->cluster_count;
     size_t listed = 0;
     for (uint32_t f = 0; f < r->face_count; ++f) {
         uint32_t prev = REGISTRY_NONE;
@@ -77,16 +89,16 @@ int registry_verify(const registry *r, const uint8_t *face_alive, char *msg, siz
                 return -1;
             }
             if (r->slot_face[s] != f) {
-                snprintf(msg, msg_size, "face %u lists original %u, which is registered to face %d", f,
-                         s / REGISTRY_SLOTS, (int)r->slot_face[s]);
+                snprintf(msg, msg_size, "face %u lists slot %u, which is registered to face %d", f, s,
+                         (int)r->slot_face[s]);
                 return -1;
             }
             if (r->slot_prev[s] != prev) {
-                snprintf(msg, msg_size, "face %u: broken back link at original %u", f, s / REGISTRY_SLOTS);
+                snprintf(msg, msg_size, "face %u: broken back link at slot %u", f, s);
                 return -1;
             }
             if (face_alive && !face_alive[f]) {
-                snprintf(msg, msg_size, "dead face %u still has original %u registered", f, s / REGISTRY_SLOTS);
+                snprintf(msg, msg_size, "dead face %u still has slot %u registered", f, s);
                 return -1;
             }
             if (++steps > slots) {
@@ -101,8 +113,7 @@ int registry_verify(const registry *r, const uint8_t *face_alive, char *msg, siz
     for (size_t s = 0; s < slots; ++s) {
         if (r->slot_face[s] == REGISTRY_NONE) continue;
         if (r->slot_face[s] >= r->face_count) {
-            snprintf(msg, msg_size, "original %zu is registered to face %u, which does not exist", s / REGISTRY_SLOTS,
-                     r->slot_face[s]);
+            snprintf(msg, msg_size, "slot %zu is registered to face %u, which does not exist", s, r->slot_face[s]);
             return -1;
         }
         registered++;
@@ -114,8 +125,14 @@ int registry_verify(const registry *r, const uint8_t *face_alive, char *msg, siz
     for (uint32_t t = 0; t < r->original_count; ++t) {
         int any = 0;
         for (uint32_t k = 0; k < REGISTRY_SLOTS; ++k) any |= r->slot_face[t * REGISTRY_SLOTS + k] != REGISTRY_NONE;
-        if (!any) {
+        const int whole = r->cluster_of && registry_cluster_face(r, r->cluster_of[t]) != REGISTRY_NONE;
+        if (!any && !whole) {
             snprintf(msg, msg_size, "original %u is registered to no face", t);
+            return -1;
+        }
+        if (any && whole) {
+            snprintf(msg, msg_size, "original %u is registered both itself and through its cluster %u", t,
+                     r->cluster_of[t]);
             return -1;
         }
     }

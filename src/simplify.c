@@ -131,11 +131,17 @@ typedef struct sim {
     int32_t *face_material;
     uint32_t *corner_vertex, *corner_wedge, *corner_next;
     uint8_t *face_alive;
-    double *face_bound, *orig_bound;
+    double *face_bound;
+    /* per unit of registration (registry.h): original t is unit t, cluster c
+     * unit nf + c; its certified bound and the batch that last changed it */
+    double *unit_bound;
+    uint32_t *unit_stamp;
+    uint32_t unit_count;
+    uint8_t *cluster_dirty; /* one of its originals was re-registered: try it whole again */
     uint32_t *vertex_first;
     uint8_t *vertex_alive;
     uint32_t *version, *reject_version;
-    uint32_t *vertex_stamp, *vertex_read_stamp, *orig_stamp; /* batch reservations */
+    uint32_t *vertex_stamp, *vertex_read_stamp; /* batch reservations */
     uint32_t batch_stamp;
     quadric *quadrics;
     double origin[3];
@@ -143,6 +149,7 @@ typedef struct sim {
      * faces have halved, so cells follow the faces' growing size */
     facegrid grid;
     uint32_t grid_built_with;
+    uint32_t faces_alive;        /* count of face_alive */
     uint32_t *face_commit_stamp; /* batch in which a commit last changed the face */
     registry reg;
     cert_original orig;
@@ -525,6 +532,22 @@ static int star_is_thin(const sim *s, const scratch *sc, const collapse *cl)
     return thin_map_box(&s->thin, lo, hi);
 }
 
+/* The faces unit (an original t < nf, or cluster unit - nf) is registered to. */
+static uint32_t unit_faces(const sim *s, uint32_t unit, uint32_t out[REGISTRY_SLOTS])
+{
+    uint32_t n = 0;
+    if (unit >= s->nf) {
+        uint32_t f = registry_cluster_face(&s->reg, unit - s->nf);
+        if (f != REGISTRY_NONE) out[n++] = f;
+        return n;
+    }
+    for (uint32_t k = 0; k < REGISTRY_SLOTS; ++k) {
+        uint32_t f = s->reg.slot_face[(size_t)unit * REGISTRY_SLOTS + k];
+        if (f != REGISTRY_NONE) out[n++] = f;
+    }
+    return n;
+}
+
 /* Certifies the collapse cl (sc->changed gathered). On success appends its
  * records to the thread's arena: per re-certified original (t, n, used[4]) +
  * bound, then changed face ids + bounds. Returns 1 accepted, 0 rejected
@@ -541,9 +564,10 @@ static int certify_collapse(const sim *s, scratch *sc, candidate *c, const colla
         const u32vec *star = side ? &sc->faces_v : &sc->faces_u;
         for (size_t i = 0; i < star->size; ++i)
             REGISTRY_FOR_EACH(&s->reg, star->data[i], slot) {
-                uint32_t t = slot / REGISTRY_SLOTS;
-                int fresh = keymap_insert(&sc->origs, t, 0);
-                if (fresh < 0 || (fresh && u32_push(&sc->recheck, t))) return sc->oom = 1, 0;
+                uint32_t cluster = registry_slot_cluster(&s->reg, slot);
+                uint32_t unit = cluster == REGISTRY_NONE ? slot / REGISTRY_SLOTS : s->nf + cluster;
+                int fresh = keymap_insert(&sc->origs, unit, 0);
+                if (fresh < 0 || (fresh && u32_push(&sc->recheck, unit))) return sc->oom = 1, 0;
             }
     }
     /* candidate faces: the new star, v's other faces and the faces the
@@ -555,29 +579,40 @@ static int certify_collapse(const sim *s, scratch *sc, candidate *c, const colla
         if (add_candidate_face(s, sc, sc->faces_v.data[i], u, v)) return sc->oom = 1, 0;
     const size_t star_faces = sc->cand_faces.size;
     for (size_t i = 0; i < sc->recheck.size; ++i) {
-        uint32_t t = sc->recheck.data[i];
-        for (uint32_t k = 0; k < REGISTRY_SLOTS; ++k) {
-            uint32_t f = s->reg.slot_face[t * REGISTRY_SLOTS + k];
-            if (f != REGISTRY_NONE && add_candidate_face(s, sc, f, u, v)) return sc->oom = 1, 0;
-        }
+        uint32_t faces[REGISTRY_SLOTS], n = unit_faces(s, sc->recheck.data[i], faces);
+        for (uint32_t k = 0; k < n; ++k)
+            if (add_candidate_face(s, sc, faces[k], u, v)) return sc->oom = 1, 0;
     }
     size_t prepared = 0;
     int ring_added = 0;
     const size_t u32_start = sc->out_u32.size, f64_start = sc->out_f64.size;
-    /* (b) first: the originals must stay covered */
+    /* (b) first: the originals must stay covered. A cluster registered whole
+     * stays whole when one face still holds it, else it is split: its
+     * originals join the list, each certified on its own. */
     for (size_t i = 0; i < sc->recheck.size; ++i) {
         uint32_t t = sc->recheck.data[i], used[CERT_MAX_WITNESSES], n = 0, first[REGISTRY_SLOTS], nfirst = 0;
-        double bound;
+        double bound = 0.0;
         for (;;) {
             if (grow((void **)&sc->tris, &sc->tris_cap, sc->cand_faces.size + 1, sizeof *sc->tris))
                 return sc->oom = 1, 0;
             for (; prepared < sc->cand_faces.size; ++prepared)
                 face_after(s, sc->cand_faces.data[prepared], cl, &sc->tris[prepared]);
+            uint32_t before[REGISTRY_SLOTS], nbefore = unit_faces(s, t, before);
             nfirst = 0;
-            for (uint32_t k = 0; k < REGISTRY_SLOTS; ++k) {
-                uint32_t f = s->reg.slot_face[t * REGISTRY_SLOTS + k];
-                const uint32_t *at = f != REGISTRY_NONE ? keymap_find(&sc->faces, f) : NULL;
+            for (uint32_t k = 0; k < nbefore; ++k) {
+                const uint32_t *at = keymap_find(&sc->faces, before[k]);
                 if (at && *at != NONE) first[nfirst++] = *at;
+            }
+            if (t >= s->nf) {
+                const uint32_t cluster = t - s->nf;
+                n = cert_cluster(&s->orig, cluster, sc->tris, (uint32_t)sc->cand_faces.size, eps, first, nfirst, used,
+                                 &bound);
+                if (!n) { /* split */
+                    const cert_cluster_info *info = &s->orig.clusters[cluster];
+                    for (uint32_t k = 0; k < info->count; ++k)
+                        if (u32_push(&sc->recheck, s->orig.tree.triangle_order[info->first + k])) return sc->oom = 1, 0;
+                }
+                break;
             }
             if (cert_cover(&s->orig, t, sc->tris, (uint32_t)sc->cand_faces.size, eps, first, nfirst, used, &n, &bound))
                 break;
@@ -795,7 +830,7 @@ static int commit(sim *s, const candidate *c)
     const uint32_t *changed = regs + (size_t)c->recheck_count * (2 + CERT_MAX_WITNESSES);
     const double *changed_bounds = reg_bounds + c->recheck_count;
     for (uint32_t i = 0; i < c->recheck_count; ++i)
-        if (s->orig_stamp[regs[i * (2 + CERT_MAX_WITNESSES)]] == s->batch_stamp) return 0;
+        if (s->unit_stamp[regs[i * (2 + CERT_MAX_WITNESSES)]] == s->batch_stamp) return 0;
 
     scratch *sc = &s->serial;
     if (gather_faces(s, u, &sc->faces_u)) return sc->oom = 1, 0;
@@ -819,6 +854,7 @@ static int commit(sim *s, const candidate *c)
         uint32_t f = sc->faces_u.data[i], cu = corner_of(s, f, u);
         if (face_has(s, f, v)) {
             s->face_alive[f] = 0;
+            s->faces_alive--;
             continue;
         }
         uint32_t cls = wedge_class_of_corner(s, cu), wedge = NONE;
@@ -855,10 +891,16 @@ static int commit(sim *s, const candidate *c)
     for (uint32_t i = 0; i < c->changed_count; ++i) s->face_bound[changed[i]] = changed_bounds[i];
     for (uint32_t i = 0; i < c->recheck_count; ++i) {
         const uint32_t *r = regs + (size_t)i * (2 + CERT_MAX_WITNESSES);
-        registry_clear(&s->reg, r[0]);
-        registry_set(&s->reg, r[0], r + 2, r[1]);
-        s->orig_bound[r[0]] = reg_bounds[i];
-        s->orig_stamp[r[0]] = s->batch_stamp;
+        if (r[0] >= s->nf) { /* a cluster: whole again (one face) or split (no face) */
+            registry_clear_cluster(&s->reg, r[0] - s->nf);
+            if (r[1]) registry_set_cluster(&s->reg, r[0] - s->nf, r[2]);
+        } else {
+            registry_clear(&s->reg, r[0]);
+            registry_set(&s->reg, r[0], r + 2, r[1]);
+            s->cluster_dirty[s->orig.cluster_of[r[0]]] = 1;
+        }
+        s->unit_bound[r[0]] = reg_bounds[i];
+        s->unit_stamp[r[0]] = s->batch_stamp;
     }
     /* u's corners join v's list */
     uint32_t cnext;
@@ -892,10 +934,10 @@ static int commit(sim *s, const candidate *c)
 /* ---- the invariant checker (LODPIPE_VERIFY=1) --------------------------------- */
 
 /* Registrations agree both ways; every alive face has alive, distinct
- * vertices; every original is still covered by its registered faces and every
- * face changed by the commit is still within eps (re-certified from scratch). */
-static int verify_state(sim *s, const uint32_t *originals, size_t original_count, const uint32_t *faces,
-                        size_t face_count)
+ * vertices; every unit given (an original, or a cluster registered whole) is
+ * still covered by its registered faces and every face given is still within
+ * eps (re-certified from scratch). */
+static int verify_state(sim *s, const uint32_t *units, size_t unit_count, const uint32_t *faces, size_t face_count)
 {
     if (registry_verify(&s->reg, s->face_alive, s->verify_msg, sizeof s->verify_msg) != 0) return -1;
     for (uint32_t f = 0; f < s->nf; ++f) {
@@ -909,21 +951,26 @@ static int verify_state(sim *s, const uint32_t *originals, size_t original_count
         }
     }
     scratch *sc = &s->serial;
-    for (size_t i = 0; i < original_count; ++i) {
-        uint32_t t = originals[i], n = 0;
-        for (uint32_t k = 0; k < REGISTRY_SLOTS; ++k) {
-            uint32_t f = s->reg.slot_face[t * REGISTRY_SLOTS + k];
-            if (f == REGISTRY_NONE) continue;
-            if (grow((void **)&sc->tris, &sc->tris_cap, n + 1, sizeof *sc->tris)) return sc->oom = 1, -1;
-            face_after(s, f, NULL, &sc->tris[n++]);
-        }
+    for (size_t i = 0; i < unit_count; ++i) {
+        uint32_t t = units[i], on[REGISTRY_SLOTS], n = unit_faces(s, t, on);
+        if (grow((void **)&sc->tris, &sc->tris_cap, REGISTRY_SLOTS, sizeof *sc->tris)) return sc->oom = 1, -1;
+        for (uint32_t k = 0; k < n; ++k) face_after(s, on[k], NULL, &sc->tris[k]);
         double bound;
         /* the recorded bound, with the certificate's margin and a hair of rounding */
-        double limit = s->orig_bound[t] * (1.0 + 1e-12);
+        double limit = s->unit_bound[t] * (1.0 + 1e-12);
+        if (t >= s->nf) { /* a cluster: whole to one face, or split (its originals are checked apart) */
+            if (n && !cert_cluster_within(&s->orig, t - s->nf, &sc->tris[0], limit)) {
+                snprintf(s->verify_msg, sizeof s->verify_msg,
+                         "cluster %u is not held by its registered face within its recorded bound %.17g", t - s->nf,
+                         s->unit_bound[t]);
+                return -1;
+            }
+            continue;
+        }
         if (!cert_cover_within(&s->orig, t, sc->tris, n, limit, &bound)) {
             snprintf(s->verify_msg, sizeof s->verify_msg,
                      "original %u is not covered by its registered faces within its recorded bound %.17g", t,
-                     s->orig_bound[t]);
+                     s->unit_bound[t]);
             return -1;
         }
     }
@@ -946,14 +993,14 @@ static int verify_after_commit(sim *s, const candidate *c)
 {
     const scratch *res = &s->scratch[c->thread];
     const uint32_t *regs = res->out_u32.data + c->u32_off;
-    u32vec originals = {0}, faces = {0};
+    u32vec units = {0}, faces = {0};
     int rc = 0;
     for (uint32_t i = 0; i < c->recheck_count && !rc; ++i)
-        rc = u32_push(&originals, regs[(size_t)i * (2 + CERT_MAX_WITNESSES)]);
+        rc = u32_push(&units, regs[(size_t)i * (2 + CERT_MAX_WITNESSES)]);
     const uint32_t *changed = regs + (size_t)c->recheck_count * (2 + CERT_MAX_WITNESSES);
     for (uint32_t i = 0; i < c->changed_count && !rc; ++i) rc = u32_push(&faces, changed[i]);
-    if (!rc) rc = verify_state(s, originals.data, originals.size, faces.data, faces.size);
-    free(originals.data);
+    if (!rc) rc = verify_state(s, units.data, units.size, faces.data, faces.size);
+    free(units.data);
     free(faces.data);
     if (rc) s->verify_failed = 1;
     return rc;
@@ -1077,7 +1124,7 @@ static size_t collect_candidates(sim *s, ranked *out)
  * incident to {u} + N(u) (W); with full-edge placement the neighbour v moves
  * too, so the faces around v change and W is R (N(v) is within two edges).
  * Two candidates are independent when neither's W meets the other's R;
- * registrations are checked at commit (orig_stamp). Returns 1 and marks the
+ * registrations are checked at commit (unit_stamp). Returns 1 and marks the
  * sets, or 0 when the candidate must wait. */
 static int reserve_footprint(sim *s, uint32_t u)
 {
@@ -1118,6 +1165,49 @@ static int reserve_footprint(sim *s, uint32_t u)
 
 static void process_batch(sim *s, candidate *batch, size_t count, long *commits);
 
+#define MERGE_FACES_TRIED 8
+
+/* Registers whole every cluster that one face now holds, among those whose
+ * originals were re-registered since the last try (cluster_dirty): the faces
+ * tried are the ones its originals are registered to. Serial, between
+ * batches. Returns 0, or -1 (out of memory, or a broken invariant). */
+static int merge_clusters(sim *s)
+{
+    scratch *sc = &s->serial;
+    u32vec merged = {0};
+    if (grow((void **)&sc->tris, &sc->tris_cap, MERGE_FACES_TRIED, sizeof *sc->tris)) return sc->oom = 1, -1;
+    for (uint32_t c = 0; c < s->orig.cluster_count; ++c) {
+        if (!s->cluster_dirty[c]) continue;
+        s->cluster_dirty[c] = 0;
+        const cert_cluster_info *info = &s->orig.clusters[c];
+        if (info->material == CERT_MIXED || info->cone_sin > 1.0) continue;
+        const uint32_t *order = s->orig.tree.triangle_order + info->first;
+        uint32_t faces[MERGE_FACES_TRIED], n = 0;
+        for (uint32_t i = 0; i < info->count && n < MERGE_FACES_TRIED; ++i) {
+            uint32_t on[REGISTRY_SLOTS], m = unit_faces(s, order[i], on);
+            for (uint32_t k = 0; k < m && n < MERGE_FACES_TRIED; ++k) {
+                uint32_t j = 0;
+                while (j < n && faces[j] != on[k]) j++;
+                if (j == n) face_after(s, faces[n++] = on[k], NULL, &sc->tris[j]);
+            }
+        }
+        uint32_t face;
+        double bound;
+        if (!cert_cluster(&s->orig, c, sc->tris, n, s->eps, NULL, 0, &face, &bound)) continue;
+        for (uint32_t i = 0; i < info->count; ++i) registry_clear(&s->reg, order[i]);
+        registry_set_cluster(&s->reg, c, face);
+        s->unit_bound[s->nf + c] = bound;
+        if (s->verify && u32_push(&merged, s->nf + c)) {
+            free(merged.data);
+            return sc->oom = 1, -1;
+        }
+    }
+    int rc = s->verify ? verify_state(s, merged.data, merged.size, NULL, 0) : 0;
+    free(merged.data);
+    if (rc) s->verify_failed = 1;
+    return rc;
+}
+
 /* (Re)builds the face grid with cells about twice the alive faces' mean
  * extent. Returns 0, or -1 when memory runs out. */
 static int grid_rebuild(sim *s)
@@ -1142,6 +1232,7 @@ static int grid_rebuild(sim *s)
         if (facegrid_insert(&s->grid, f, t.lo, t.hi) != FACEGRID_OK) return -1;
     }
     s->grid_built_with = alive;
+    s->faces_alive = alive;
     return 0;
 }
 
@@ -1153,9 +1244,7 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
 {
     simplify_stats *st = s->stats;
     double t0 = now_seconds();
-    uint32_t alive = 0;
-    for (uint32_t f = 0; f < s->nf; ++f) alive += s->face_alive[f];
-    if (alive < s->grid_built_with / 2 && grid_rebuild(s)) return -1;
+    if (merge_clusters(s)) return -1;
     size_t n = collect_candidates(s, ranks);
     st->seconds_select += now_seconds() - t0;
     long commits = 0;
@@ -1177,6 +1266,10 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
             if (commits < 0) return -1;
             count = 0;
             if (++s->batch_stamp == 0) return -1;
+            /* the first pass of a level removes most faces: cells sized for
+             * the faces it started with would make every crossing query
+             * visit many cells */
+            if (s->faces_alive < s->grid_built_with / 2 && grid_rebuild(s)) return -1;
         }
     }
     if (count) process_batch(s, batch, count, &commits);
@@ -1262,14 +1355,15 @@ static void sim_free(sim *s)
     free(s->corner_next);
     free(s->face_alive);
     free(s->face_bound);
-    free(s->orig_bound);
+    free(s->unit_bound);
+    free(s->unit_stamp);
+    free(s->cluster_dirty);
     free(s->vertex_first);
     free(s->vertex_alive);
     free(s->version);
     free(s->reject_version);
     free(s->vertex_stamp);
     free(s->vertex_read_stamp);
-    free(s->orig_stamp);
     free(s->quadrics);
     free(s->face_commit_stamp);
     facegrid_free(&s->grid);
@@ -1331,14 +1425,12 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     s->corner_next = malloc((3 * (size_t)nf + 1) * sizeof *s->corner_next);
     s->face_alive = malloc((size_t)nf + 1);
     s->face_bound = calloc((size_t)nf + 1, sizeof *s->face_bound);
-    s->orig_bound = calloc((size_t)nf + 1, sizeof *s->orig_bound);
     s->vertex_first = malloc(((size_t)nv + 1) * sizeof *s->vertex_first);
     s->vertex_alive = malloc((size_t)nv + 1);
     s->version = calloc((size_t)nv + 1, sizeof *s->version);
     s->reject_version = malloc(((size_t)nv + 1) * sizeof *s->reject_version);
     s->vertex_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_stamp);
     s->vertex_read_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_read_stamp);
-    s->orig_stamp = calloc((size_t)nf + 1, sizeof *s->orig_stamp);
     s->quadrics = calloc((size_t)nv + 1, sizeof *s->quadrics);
     s->face_commit_stamp = calloc((size_t)nf + 1, sizeof *s->face_commit_stamp);
     s->special = malloc((size_t)nv + 1);
@@ -1346,8 +1438,8 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
         for (uint32_t v = 0; v < nv; ++v)
             s->special[v] = w->vertex_kind[v] == WELD_BORDER || w->vertex_kind[v] == WELD_LOCKED;
     if (!s->special || !s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next || !s->face_alive ||
-        !s->face_bound || !s->orig_bound || !s->vertex_first || !s->vertex_alive || !s->version ||
-        !s->reject_version || !s->vertex_stamp || !s->vertex_read_stamp || !s->orig_stamp || !s->quadrics || !s->face_commit_stamp)
+        !s->face_bound || !s->vertex_first || !s->vertex_alive || !s->version ||
+        !s->reject_version || !s->vertex_stamp || !s->vertex_read_stamp || !s->quadrics || !s->face_commit_stamp)
         return -1;
     for (uint32_t t = 0; t < s->thread_count; ++t)
         if (scratch_init(&s->scratch[t], nv)) return -1;
@@ -1375,10 +1467,16 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
         }
     for (int k = 0; k < 3; ++k) s->origin[k] = nv ? 0.5 * (lo[k] + hi[k]) : 0.0;
     for (uint32_t f = 0; f < nf; ++f) add_plane(s, f);
-    if (registry_init(&s->reg, nf)) return -1;
     if (cert_original_init(&s->orig, w->positions, nv, w->triangle_vertices, nf, s->face_material,
                            w->vertex_triangle_offsets, w->vertex_triangles))
         return -1;
+    const uint32_t clusters = s->orig.cluster_count;
+    s->unit_count = nf + clusters;
+    s->unit_bound = calloc((size_t)s->unit_count + 1, sizeof *s->unit_bound);
+    s->unit_stamp = calloc((size_t)s->unit_count + 1, sizeof *s->unit_stamp);
+    s->cluster_dirty = malloc((size_t)clusters + 1);
+    if (!s->unit_bound || !s->unit_stamp || !s->cluster_dirty) return -1;
+    if (registry_init(&s->reg, nf, s->orig.cluster_of, clusters)) return -1;
     return 0;
 }
 
@@ -1393,8 +1491,14 @@ static int snapshot_level(sim *s, simplify_level *level)
             alive++;
             if (s->face_bound[f] > bound) bound = s->face_bound[f];
         }
+    /* the bounds of the certificates in force: an original's own, or its
+     * cluster's when that is registered whole */
     for (uint32_t t = 0; t < s->nf; ++t)
-        if (s->orig_bound[t] > bound) bound = s->orig_bound[t];
+        if (registry_cluster_face(&s->reg, s->orig.cluster_of[t]) == REGISTRY_NONE && s->unit_bound[t] > bound)
+            bound = s->unit_bound[t];
+    for (uint32_t c = 0; c < s->orig.cluster_count; ++c)
+        if (registry_cluster_face(&s->reg, c) != REGISTRY_NONE && s->unit_bound[s->nf + c] > bound)
+            bound = s->unit_bound[s->nf + c];
     level->bound = bound;
     level->triangle_count = alive;
     level->wedges = malloc(((size_t)alive * 3 + 1) * sizeof *level->wedges);
@@ -1461,6 +1565,7 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
         s->eps = options->fractions[k] * out->diagonal;
         level->eps = s->eps;
         memset(s->reject_version, 0xff, (size_t)w->vertex_count * sizeof *s->reject_version);
+        memset(s->cluster_dirty, 1, s->orig.cluster_count); /* a larger eps may hold more of them whole */
         thin_map_free(&s->thin);
         if (grid_rebuild(s) ||
             (!s->strict && thin_map_build(&s->thin, 2.0 * s->eps, w->positions, w->vertex_count, w->triangle_vertices,

@@ -889,6 +889,137 @@ static void test_overlay_face(void)
     overlay_face_case(0, 0, 0, 1);
 }
 
+/* ---- clusters (b) whole: one face for a run of originals -------------------- */
+
+/* The clusters partition the originals into runs of the BVH order of at most
+ * CERT_CLUSTER_MAX; each ball holds its triangles' vertices; each cone holds
+ * its triangles' real normals (checked with random face normals: whenever
+ * the cone test passes, every real normal agrees). */
+static void test_cluster_layout(void)
+{
+    orig_mesh m;
+    om_height_field(&m, 24);
+    CHECK(om_build(&m) == 0, "cert_original_init");
+    if (!m.built) {
+        om_free(&m);
+        return;
+    }
+    const cert_original *o = &m.o;
+    CHECK(o->cluster_count > 1 && o->cluster_count < m.nt, "%u clusters of %u triangles", o->cluster_count, m.nt);
+    uint32_t next = 0, agreeing = 0;
+    for (uint32_t c = 0; c < o->cluster_count; ++c) {
+        const cert_cluster_info *ci = &o->clusters[c];
+        CHECK(ci->first == next && ci->count >= 1 && ci->count <= CERT_CLUSTER_MAX, "cluster %u: run %u + %u", c,
+              ci->first, ci->count);
+        next = ci->first + ci->count;
+        for (uint32_t i = 0; i < ci->count; ++i) {
+            uint32_t t = o->tree.triangle_order[ci->first + i];
+            CHECK(o->cluster_of[t] == c, "triangle %u in cluster %u says %u", t, c, o->cluster_of[t]);
+            vec3d p[3];
+            om_triangle(&m, t, p);
+            for (int k = 0; k < 3; ++k)
+                CHECK(geom_distance(p[k], geom_vec3d(ci->centre[0], ci->centre[1], ci->centre[2])) <= ci->radius,
+                      "cluster %u: a vertex outside its ball", c);
+        }
+        for (int trial = 0; trial < 200; ++trial) {
+            vec3d g = geom_vec3d(rng_uniform(-1, 1), rng_uniform(-1, 1), rng_uniform(-1, 1));
+            if (geom_length(g) < 0.1) continue;
+            g = geom_scale(g, 1.0 / geom_length(g));
+            if (!(ci->axis[0] * g.x + ci->axis[1] * g.y + ci->axis[2] * g.z > ci->cone_sin)) continue;
+            agreeing++;
+            for (uint32_t i = 0; i < ci->count; ++i) {
+                const double *n = o->normals + 3 * (size_t)o->tree.triangle_order[ci->first + i];
+                CHECK(n[0] * g.x + n[1] * g.y + n[2] * g.z > 0.0, "cluster %u: a normal outside its cone", c);
+            }
+        }
+    }
+    CHECK(next == m.nt, "the runs cover the order: %u of %u", next, m.nt);
+    CHECK(agreeing > 1000, "not vacuous: %u agreeing normals drawn", agreeing);
+    om_free(&m);
+}
+
+/* Random faces near a height field against every cluster: what is accepted
+ * holds each of the cluster's triangles within the bound (sampled), and
+ * never by the face turned the other way. */
+static void test_cluster_fuzz(void)
+{
+    orig_mesh m;
+    om_height_field(&m, 16);
+    CHECK(om_build(&m) == 0, "cert_original_init");
+    if (!m.built) {
+        om_free(&m);
+        return;
+    }
+    int accepted = 0, rejected = 0;
+    for (int trial = 0; trial < 300; ++trial) {
+        uint32_t c = (uint32_t)(rng_next() % m.o.cluster_count);
+        const cert_cluster_info *ci = &m.o.clusters[c];
+        double eps = rng_uniform(0.01, 0.15), lift = eps * rng_uniform(0, 1.2), size = rng_uniform(0.1, 0.6);
+        vec3d q[3];
+        for (int k = 0; k < 3; ++k) {
+            double a = 2 * M_PI * k / 3 + rng_uniform(-0.3, 0.3);
+            q[k] = geom_vec3d(ci->centre[0] + size * cos(a), ci->centre[1] + size * sin(a), 0);
+            q[k].z = bumpy(q[k].x, q[k].y) + rng_uniform(-lift, lift);
+        }
+        cert_tri faces[2] = {make_face(q[0], q[1], q[2], 0, 7), make_face(q[0], q[2], q[1], 0, 8)};
+        uint32_t face = 99;
+        double bound = -1;
+        /* the same face both ways round: only the up-facing one may hold it */
+        if (!cert_cluster(&m.o, c, faces, 2, eps, NULL, 0, &face, &bound)) {
+            rejected++;
+            continue;
+        }
+        accepted++;
+        CHECK(face == 7, "trial %d: the down-facing copy was used", trial);
+        CHECK(cert_cluster_within(&m.o, c, &faces[0], bound * (1 + 1e-12)), "the checker's re-run agrees");
+        double worst = 0.0;
+        for (uint32_t i = 0; i < ci->count; ++i) {
+            double d = sampled_original_to_faces(&m, m.o.tree.triangle_order[ci->first + i], &faces[0], 1, 12);
+            if (d > worst) worst = d;
+        }
+        CHECK(worst <= bound + slack(1) && bound <= eps, "trial %d: sampled %.17g <= bound %.17g <= eps %.17g", trial,
+              worst, bound, eps);
+    }
+    printf("#   cert_cluster fuzz: %d accepted (each sampled), %d rejected\n", accepted, rejected);
+    CHECK(accepted >= 40 && rejected >= 40, "not vacuous: %d accepted, %d rejected", accepted, rejected);
+    om_free(&m);
+}
+
+/* A thin plate's two sheets in one cluster have no normal cone: no face
+ * holds it whole (each sheet alone is the overlay's business); a cluster of
+ * two materials neither. */
+static void test_cluster_plate_and_materials(void)
+{
+    orig_mesh m;
+    build_thin_plate(&m);
+    CHECK(om_build(&m) == 0, "cert_original_init");
+    if (!m.built) {
+        om_free(&m);
+        return;
+    }
+    CHECK(m.o.cluster_count == 1 && m.o.clusters[0].cone_sin > 1.0, "one cluster, no cone");
+    uint32_t face;
+    double bound;
+    cert_tri up = make_face(geom_vec3d(-1, -1, 0.005), geom_vec3d(3, -1, 0.005), geom_vec3d(-1, 3, 0.005), 0, 1);
+    cert_tri down = make_face(geom_vec3d(-1, -1, 0.005), geom_vec3d(-1, 3, 0.005), geom_vec3d(3, -1, 0.005), 0, 2);
+    const cert_tri both[2] = {up, down};
+    CHECK(!cert_cluster(&m.o, 0, both, 2, 0.05, NULL, 0, &face, &bound), "a plate certified whole by one face");
+    om_free(&m);
+
+    om_height_field(&m, 4);
+    m.mat[5] = 3;
+    CHECK(om_build(&m) == 0, "cert_original_init");
+    if (!m.built) {
+        om_free(&m);
+        return;
+    }
+    uint32_t c = m.o.cluster_of[5];
+    CHECK(m.o.clusters[c].material == CERT_MIXED, "a cluster of two materials is mixed");
+    cert_tri big = make_face(geom_vec3d(-2, -2, 0), geom_vec3d(4, -2, 0), geom_vec3d(-2, 4, 0), 0, 1);
+    CHECK(!cert_cluster(&m.o, c, &big, 1, 10.0, NULL, 0, &face, &bound), "a mixed cluster certified whole");
+    om_free(&m);
+}
+
 int main(void)
 {
     RUN(test_obtuse_centroid_ball);
@@ -902,5 +1033,8 @@ int main(void)
     RUN(test_translated_far);
     RUN(test_overlay_cover);
     RUN(test_overlay_face);
+    RUN(test_cluster_layout);
+    RUN(test_cluster_fuzz);
+    RUN(test_cluster_plate_and_materials);
     return check_summary();
 }

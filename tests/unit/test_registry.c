@@ -61,7 +61,7 @@ static void test_init_set_clear(void)
 {
     registry r;
     const uint32_t n = 40;
-    CHECK(registry_init(&r, n) == 0, "registry_init");
+    CHECK(registry_init(&r, n, NULL, 0) == 0, "registry_init");
     uint32_t *model = malloc(n * REGISTRY_SLOTS * sizeof *model);
     uint8_t *alive = malloc(n);
     memset(model, 0xff, n * REGISTRY_SLOTS * sizeof *model);
@@ -103,7 +103,7 @@ static void test_init_set_clear(void)
  * 6 to {7}, 7 to {7, 1}. Faces 4, 5, 6 are unused. */
 static void build_small(registry *r)
 {
-    if (registry_init(r, 8) != 0) abort();
+    if (registry_init(r, 8, NULL, 0) != 0) abort();
     static const uint32_t sets[8][3] = {{0, 1}, {0, 1}, {0, 1}, {0, 1}, {1, 2, 3}, {1, 2, 3}, {7}, {7, 1}};
     static const uint32_t counts[8] = {2, 2, 2, 2, 3, 3, 1, 2};
     for (uint32_t t = 0; t < 8; ++t) {
@@ -261,7 +261,7 @@ static void test_verify_random_corruption(void)
     int caught = 0, harmless = 0, missed = 0;
     for (int trial = 0; trial < 600; ++trial) {
         registry r;
-        if (registry_init(&r, n) != 0) abort();
+        if (registry_init(&r, n, NULL, 0) != 0) abort();
         uint32_t model[30 * REGISTRY_SLOTS];
         memset(model, 0xff, sizeof model);
         for (uint32_t t = 0; t < n; ++t) {
@@ -313,10 +313,49 @@ static void test_verify_random_corruption(void)
     CHECK(caught > 300, "caught %d (harmless %d, missed %d)", caught, harmless, missed);
 }
 
+/* Clusters registered whole: 12 originals in 3 clusters of 4. Registering a
+ * cluster whole (after clearing its originals) and splitting it again keep
+ * the registry intact; an original covered both ways, or neither, is
+ * reported. */
+static void test_clusters(void)
+{
+    static const uint32_t cluster_of[12] = {0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2};
+    registry r;
+    CHECK(registry_init(&r, 12, cluster_of, 3) == 0, "registry_init");
+    char msg[256];
+    for (uint32_t t = 4; t < 8; ++t) registry_clear(&r, t);
+    registry_set_cluster(&r, 1, 9);
+    CHECK(registry_cluster_face(&r, 1) == 9 && registry_cluster_face(&r, 0) == REGISTRY_NONE, "cluster 1 whole to face 9");
+    CHECK(verify(&r, NULL, msg) == 0, "intact with a whole cluster: %s", msg);
+    uint32_t seen = 0, clusters = 0;
+    REGISTRY_FOR_EACH(&r, 9, slot) {
+        seen++;
+        clusters += registry_slot_cluster(&r, slot) == 1;
+    }
+    CHECK(seen == 2 && clusters == 1, "face 9 lists original 9 and cluster 1: %u slots, %u clusters", seen, clusters);
+    uint8_t alive[12];
+    memset(alive, 1, sizeof alive);
+    alive[9] = 0;
+    CHECK(verify(&r, alive, msg) != 0, "a dead face holding a cluster is reported");
+    /* covered twice: original 5 registered again while its cluster is whole */
+    uint32_t f = 3;
+    registry_set(&r, 5, &f, 1);
+    CHECK(verify(&r, NULL, msg) != 0 && strstr(msg, "original 5"), "covered twice is reported: %s", msg);
+    registry_clear(&r, 5);
+    CHECK(verify(&r, NULL, msg) == 0, "intact again: %s", msg);
+    /* covered by nothing: the cluster split without its originals registered */
+    registry_clear_cluster(&r, 1);
+    CHECK(verify(&r, NULL, msg) != 0 && strstr(msg, "registered to no face"), "uncovered is reported: %s", msg);
+    for (uint32_t t = 4; t < 8; ++t) registry_set(&r, t, &f, 1);
+    CHECK(verify(&r, NULL, msg) == 0, "split and registered one by one: %s", msg);
+    registry_free(&r);
+}
+
 int main(void)
 {
     RUN(test_init_set_clear);
     RUN(test_verify_catches_corruption);
     RUN(test_verify_random_corruption);
+    RUN(test_clusters);
     return check_summary();
 }
