@@ -140,7 +140,12 @@ typedef struct sim {
     uint8_t *cluster_dirty; /* one of its originals was re-registered: try it whole again */
     uint32_t *vertex_first;
     uint8_t *vertex_alive;
-    uint32_t *version, *reject_version;
+    /* a rejected candidate waits until its neighbourhood changes: commits
+     * are numbered (commit_clock); change_stamp[x] is the last commit that
+     * changed a face around x, reject_stamp[u] the clock when u was rejected
+     * (NONE: not rejected) */
+    uint32_t *change_stamp, *reject_stamp;
+    uint32_t commit_clock;
     uint32_t *vertex_stamp, *vertex_read_stamp; /* batch reservations */
     uint32_t batch_stamp;
     quadric *quadrics;
@@ -468,9 +473,9 @@ static int crosses(void *context, uint32_t g)
 {
     const crossing_query *q = context;
     const sim *s = q->s;
+    if (q->only_stamp && s->face_commit_stamp[g] != q->only_stamp) return 0; /* cheapest first */
     if (!s->face_alive[g] || face_has(s, g, q->cl->u)) return 0; /* the star itself is tested apart */
     if (q->cl->moved && face_has(s, g, q->cl->v)) return 0;
-    if (q->only_stamp && s->face_commit_stamp[g] != q->only_stamp) return 0;
     double other[3][3];
     for (int k = 0; k < 3; ++k) vertex_position(s, s->corner_vertex[3 * g + k], other[k]);
     for (int a = 0; a < 3; ++a) { /* boxes first: most grid neighbours are not close */
@@ -787,22 +792,16 @@ static void evaluate_batch(sim *s, candidate *cands, size_t count)
 
 /* ---- commit -------------------------------------------------------------------- */
 
-static void bump_versions(sim *s, uint32_t v)
+/* Marks the vertices of every face around v (after the collapse onto it) as
+ * changed by this commit: a candidate within one edge of them reads a face
+ * that changed (collect_candidates), i.e. every vertex within two edges of v. */
+static void stamp_changes(sim *s, uint32_t v)
 {
-    scratch *sc = &s->serial;
-    if (gather_faces(s, v, &sc->ring)) {
-        sc->oom = 1;
-        return;
-    }
-    s->version[v]++;
-    for (size_t i = 0; i < sc->ring.size; ++i)
-        for (int k = 0; k < 3; ++k) {
-            uint32_t x = s->corner_vertex[3 * sc->ring.data[i] + k];
-            s->version[x]++;
-            for (uint32_t c = s->vertex_first[x]; c != NONE; c = s->corner_next[c])
-                if (s->face_alive[c / 3] && s->corner_vertex[c] == x)
-                    for (int j = 0; j < 3; ++j) s->version[s->corner_vertex[3 * (c / 3) + j]]++;
-        }
+    const uint32_t clock = ++s->commit_clock;
+    s->change_stamp[v] = clock;
+    for (uint32_t c = s->vertex_first[v]; c != NONE; c = s->corner_next[c])
+        if (s->face_alive[c / 3] && s->corner_vertex[c] == v)
+            for (int j = 0; j < 3; ++j) s->change_stamp[s->corner_vertex[3 * (c / 3) + j]] = clock;
 }
 
 /* Drops corners of dead faces and corners that no longer belong to v. */
@@ -926,7 +925,7 @@ static int commit(sim *s, const candidate *c)
     quadric_add(&s->quadrics[v], &s->quadrics[u]);
     s->vertex_alive[u] = 0;
     s->death[u] = (uint8_t)(s->level + 1);
-    bump_versions(s, v);
+    stamp_changes(s, v);
     if (s->verify && verify_after_commit(s, c) != 0) return 0;
     return 1;
 }
@@ -1099,7 +1098,14 @@ static size_t collect_candidates(sim *s, ranked *out)
     double place[3];
     for (uint32_t u = 0; u < s->nv; ++u) {
         if (!s->vertex_alive[u] || s->w->vertex_kind[u] == WELD_LOCKED) continue;
-        if (s->reject_version[u] == s->version[u]) continue;
+        if (s->reject_stamp[u] != NONE) { /* rejected: has a face around a neighbour changed since? */
+            int changed = s->change_stamp[u] > s->reject_stamp[u];
+            for (uint32_t c = s->vertex_first[u]; c != NONE && !changed; c = s->corner_next[c])
+                if (s->face_alive[c / 3] && s->corner_vertex[c] == u)
+                    for (int j = 0; j < 3; ++j) changed |= s->change_stamp[s->corner_vertex[3 * (c / 3) + j]] > s->reject_stamp[u];
+            if (!changed) continue;
+            s->reject_stamp[u] = NONE;
+        }
         double best = INFINITY;
         for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c]) {
             if (!s->face_alive[c / 3] || s->corner_vertex[c] != u) continue;
@@ -1297,7 +1303,7 @@ static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
         st->attempts += c->attempts;
         if (c->v == NONE) {
             st->rejected[c->reason]++;
-            s->reject_version[c->u] = s->version[c->u];
+            s->reject_stamp[c->u] = s->commit_clock;
             continue;
         }
         if (!commit(s, c)) {
@@ -1360,8 +1366,8 @@ static void sim_free(sim *s)
     free(s->cluster_dirty);
     free(s->vertex_first);
     free(s->vertex_alive);
-    free(s->version);
-    free(s->reject_version);
+    free(s->change_stamp);
+    free(s->reject_stamp);
     free(s->vertex_stamp);
     free(s->vertex_read_stamp);
     free(s->quadrics);
@@ -1427,8 +1433,8 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     s->face_bound = calloc((size_t)nf + 1, sizeof *s->face_bound);
     s->vertex_first = malloc(((size_t)nv + 1) * sizeof *s->vertex_first);
     s->vertex_alive = malloc((size_t)nv + 1);
-    s->version = calloc((size_t)nv + 1, sizeof *s->version);
-    s->reject_version = malloc(((size_t)nv + 1) * sizeof *s->reject_version);
+    s->change_stamp = calloc((size_t)nv + 1, sizeof *s->change_stamp);
+    s->reject_stamp = malloc(((size_t)nv + 1) * sizeof *s->reject_stamp);
     s->vertex_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_stamp);
     s->vertex_read_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_read_stamp);
     s->quadrics = calloc((size_t)nv + 1, sizeof *s->quadrics);
@@ -1438,8 +1444,8 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
         for (uint32_t v = 0; v < nv; ++v)
             s->special[v] = w->vertex_kind[v] == WELD_BORDER || w->vertex_kind[v] == WELD_LOCKED;
     if (!s->special || !s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next || !s->face_alive ||
-        !s->face_bound || !s->vertex_first || !s->vertex_alive || !s->version ||
-        !s->reject_version || !s->vertex_stamp || !s->vertex_read_stamp || !s->quadrics || !s->face_commit_stamp)
+        !s->face_bound || !s->vertex_first || !s->vertex_alive || !s->change_stamp ||
+        !s->reject_stamp || !s->vertex_stamp || !s->vertex_read_stamp || !s->quadrics || !s->face_commit_stamp)
         return -1;
     for (uint32_t t = 0; t < s->thread_count; ++t)
         if (scratch_init(&s->scratch[t], nv)) return -1;
@@ -1452,7 +1458,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     memset(s->face_alive, 1, nf);
     memset(s->vertex_alive, 1, nv);
     memset(s->vertex_first, 0xff, ((size_t)nv + 1) * sizeof *s->vertex_first);
-    memset(s->reject_version, 0xff, ((size_t)nv + 1) * sizeof *s->reject_version);
+    memset(s->reject_stamp, 0xff, ((size_t)nv + 1) * sizeof *s->reject_stamp);
     for (uint32_t c = 3 * nf; c-- > 0;) { /* lists in ascending corner order */
         uint32_t v = s->corner_vertex[c];
         s->corner_next[c] = s->vertex_first[v];
@@ -1564,7 +1570,7 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
         s->stats = &level->stats;
         s->eps = options->fractions[k] * out->diagonal;
         level->eps = s->eps;
-        memset(s->reject_version, 0xff, (size_t)w->vertex_count * sizeof *s->reject_version);
+        memset(s->reject_stamp, 0xff, (size_t)w->vertex_count * sizeof *s->reject_stamp);
         memset(s->cluster_dirty, 1, s->orig.cluster_count); /* a larger eps may hold more of them whole */
         thin_map_free(&s->thin);
         if (grid_rebuild(s) ||
@@ -1587,7 +1593,7 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
                 if (!placing_pending) break;
                 placing_pending = 0;
                 s->full_edge = 1; /* every candidate gets another chance, with placement */
-                memset(s->reject_version, 0xff, (size_t)w->vertex_count * sizeof *s->reject_version);
+                memset(s->reject_stamp, 0xff, (size_t)w->vertex_count * sizeof *s->reject_stamp);
             }
         }
         if (s->verify && verify_state(s, NULL, 0, NULL, 0) != 0) {
