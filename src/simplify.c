@@ -464,7 +464,8 @@ static int flip_ok(const sim *s, const scratch *sc, const collapse *cl)
 
 typedef struct crossing_query {
     const sim *s;
-    const cert_tri *face; /* the new face */
+    const cert_tri *faces; /* the new faces */
+    size_t count;
     const collapse *cl;
     uint32_t only_stamp;  /* 0: every face; else only faces committed in that batch */
 } crossing_query;
@@ -476,31 +477,44 @@ static int crosses(void *context, uint32_t g)
     if (q->only_stamp && s->face_commit_stamp[g] != q->only_stamp) return 0; /* cheapest first */
     if (!s->face_alive[g] || face_has(s, g, q->cl->u)) return 0; /* the star itself is tested apart */
     if (q->cl->moved && face_has(s, g, q->cl->v)) return 0;
-    double other[3][3];
+    double other[3][3], lo[3], hi[3];
     for (int k = 0; k < 3; ++k) vertex_position(s, s->corner_vertex[3 * g + k], other[k]);
-    for (int a = 0; a < 3; ++a) { /* boxes first: most grid neighbours are not close */
-        double lo = fmin(other[0][a], fmin(other[1][a], other[2][a]));
-        double hi = fmax(other[0][a], fmax(other[1][a], other[2][a]));
-        if (lo > q->face->hi[a] || hi < q->face->lo[a]) return 0;
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = fmin(other[0][a], fmin(other[1][a], other[2][a]));
+        hi[a] = fmax(other[0][a], fmax(other[1][a], other[2][a]));
     }
-    return intersect_triangles((const double(*)[3])q->face->p, (const double(*)[3])other);
+    for (size_t i = 0; i < q->count; ++i) {
+        const cert_tri *f = &q->faces[i];
+        int apart = 0; /* boxes first: most grid neighbours are not close */
+        for (int a = 0; a < 3; ++a) apart |= lo[a] > f->hi[a] || hi[a] < f->lo[a];
+        if (!apart && intersect_triangles((const double(*)[3])f->p, (const double(*)[3])other)) return 1;
+    }
+    return 0;
 }
 
 /* 1 when a face of the new star would cross another face of the level or
- * another new face (only_stamp: only faces committed in that batch). */
+ * another new face (only_stamp: only faces committed in that batch). One
+ * grid query over the star's box: its faces overlap, and one query per face
+ * would meet the same neighbours several times. */
 static int star_crosses(const sim *s, scratch *sc, const collapse *cl, uint32_t only_stamp)
 {
     const size_t n = sc->changed.size;
     if (grow((void **)&sc->tris, &sc->tris_cap, n + 1, sizeof *sc->tris)) return sc->oom = 1, 1;
-    for (size_t i = 0; i < n; ++i) face_after(s, sc->changed.data[i], cl, &sc->tris[i]);
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = 0; i < n; ++i) {
-        if (!only_stamp)
+        face_after(s, sc->changed.data[i], cl, &sc->tris[i]);
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = fmin(lo[a], sc->tris[i].lo[a]);
+            hi[a] = fmax(hi[a], sc->tris[i].hi[a]);
+        }
+    }
+    if (!only_stamp)
+        for (size_t i = 0; i < n; ++i)
             for (size_t j = i + 1; j < n; ++j)
                 if (intersect_triangles((const double(*)[3])sc->tris[i].p, (const double(*)[3])sc->tris[j].p)) return 1;
-        crossing_query q = {s, &sc->tris[i], cl, only_stamp};
-        if (facegrid_query(&s->grid, sc->tris[i].lo, sc->tris[i].hi, crosses, &q)) return 1;
-    }
-    return 0;
+    if (!n) return 0;
+    crossing_query q = {s, sc->tris, n, cl, only_stamp};
+    return facegrid_query(&s->grid, lo, hi, crosses, &q);
 }
 
 static void box_add(double lo[3], double hi[3], const double p[3])
