@@ -214,12 +214,14 @@ static int witness_ok(void *context, uint32_t t)
            nt[0] * f->n[0] + nt[1] * f->n[1] + nt[2] * f->n[2] > 0.0;
 }
 
-static double max_corner_distance(const vec3d piece[3], const vec3d tri[3])
+/* The largest corner distance of the piece to tri, or INFINITY as soon as
+ * one corner is farther than accept (the callers accept only <= accept). */
+static double max_corner_distance(const vec3d piece[3], const vec3d tri[3], double accept)
 {
     double worst = 0.0;
     for (int k = 0; k < 3; ++k) {
         double d2 = geom_point_triangle_distance2(&piece[k], &tri[0], &tri[1], &tri[2], NULL);
-        if (d2 != d2) return INFINITY; /* NaN: never accepted */
+        if (!(d2 <= accept * accept)) return INFINITY; /* NaN too: never accepted */
         if (d2 > worst) worst = d2;
     }
     return sqrt(worst);
@@ -360,7 +362,7 @@ static int piece_a(const cert_original *o, face_filter *filter, const cert_tri *
             if (!witness_ok(filter, t)) continue;
             vec3d tri[3];
             triangle_of(o, t, tri);
-            double m = max_corner_distance(p, tri);
+            double m = max_corner_distance(p, tri, accept);
             if (m < best) best = m;
         }
     }
@@ -398,7 +400,7 @@ int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bou
             if (!witness_ok(&filter, t)) continue;
             vec3d tri[3];
             triangle_of(o, t, tri);
-            double m = max_corner_distance(p, tri);
+            double m = max_corner_distance(p, tri, accept);
             if (m <= accept) {
                 *bound = m;
                 return 1;
