@@ -1242,7 +1242,13 @@ static int grid_rebuild(sim *s)
         if (isfinite(e)) extent += e;
         alive++;
     }
-    double cell = alive ? 4.0 * extent / alive : 1.0;
+    /* cells twice the mean extent: a query then visits few faces that are
+     * not near it. Except over the whole original (the first level's start,
+     * the memory peak), where 4x spans fewer cells per face: measured on a
+     * 1.1M-triangle chain, 2x throughout cost 19 bytes a triangle more at the
+     * peak, 4x throughout 1.4 s more time. */
+    const double factor = alive == s->nf ? 4.0 : 2.0;
+    double cell = alive ? factor * extent / alive : 1.0;
     if (!(cell > 0.0) || !isfinite(cell)) cell = 1.0;
     facegrid_free(&s->grid);
     if (facegrid_init(&s->grid, cell, s->nf) != FACEGRID_OK) return -1;
