@@ -384,7 +384,9 @@ static void json_stats(FILE *f, const simplify_stats *st)
             st->passes, st->batches);
     for (int r = 0; r < SIMPLIFY_REJECT_COUNT; ++r)
         fprintf(f, "%s\"%s\":%llu", r ? "," : "", names[r], (unsigned long long)st->rejected[r]);
-    fprintf(f, "},\"seconds_select\":%.6f,\"seconds_certify\":%.6f,\"seconds_commit\":%.6f", st->seconds_select,
+    fprintf(f, "},\"clusters\":{\"merges\":%llu,\"splits\":%llu,\"whole\":%u}", (unsigned long long)st->cluster_merges,
+            (unsigned long long)st->cluster_splits, st->clusters_whole);
+    fprintf(f, ",\"seconds_select\":%.6f,\"seconds_certify\":%.6f,\"seconds_commit\":%.6f", st->seconds_select,
             st->seconds_certify, st->seconds_commit);
 }
 

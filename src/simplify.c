@@ -907,6 +907,7 @@ static int commit(sim *s, const candidate *c)
         if (r[0] >= s->nf) { /* a cluster: whole again (one face) or split (no face) */
             registry_clear_cluster(&s->reg, r[0] - s->nf);
             if (r[1]) registry_set_cluster(&s->reg, r[0] - s->nf, r[2]);
+            else s->stats->cluster_splits++;
         } else {
             registry_clear(&s->reg, r[0]);
             registry_set(&s->reg, r[0], r + 2, r[1]);
@@ -1217,6 +1218,7 @@ static int merge_clusters(sim *s)
         for (uint32_t i = 0; i < info->count; ++i) registry_clear(&s->reg, order[i]);
         registry_set_cluster(&s->reg, c, face);
         s->unit_bound[s->nf + c] = bound;
+        s->stats->cluster_merges++;
         if (s->verify && u32_push(&merged, s->nf + c)) {
             free(merged.data);
             return sc->oom = 1, -1;
@@ -1522,9 +1524,11 @@ static int snapshot_level(sim *s, simplify_level *level)
     for (uint32_t t = 0; t < s->nf; ++t)
         if (registry_cluster_face(&s->reg, s->orig.cluster_of[t]) == REGISTRY_NONE && s->unit_bound[t] > bound)
             bound = s->unit_bound[t];
-    for (uint32_t c = 0; c < s->orig.cluster_count; ++c)
-        if (registry_cluster_face(&s->reg, c) != REGISTRY_NONE && s->unit_bound[s->nf + c] > bound)
-            bound = s->unit_bound[s->nf + c];
+    for (uint32_t c = 0; c < s->orig.cluster_count; ++c) {
+        if (registry_cluster_face(&s->reg, c) == REGISTRY_NONE) continue;
+        level->stats.clusters_whole++;
+        if (s->unit_bound[s->nf + c] > bound) bound = s->unit_bound[s->nf + c];
+    }
     level->bound = bound;
     level->triangle_count = alive;
     level->wedges = malloc(((size_t)alive * 3 + 1) * sizeof *level->wedges);

@@ -64,6 +64,10 @@ typedef struct simplify_stats {
     uint64_t commits;
     uint64_t rejected[SIMPLIFY_REJECT_COUNT];
     uint32_t passes, batches;
+    /* originals certified in clusters (certify.h): clusters registered whole
+     * by the between-pass sweep, split back by a collapse, whole at the end */
+    uint64_t cluster_merges, cluster_splits;
+    uint32_t clusters_whole;
     double seconds_select, seconds_certify, seconds_commit, seconds;
 } simplify_stats;
 

@@ -745,8 +745,8 @@ for (const { asset, extra, label } of runsToCheck) {
 
 // ---------------------------------------------------------------------------------------------
 // The invariant checker on real scans: LODPIPE_VERIFY=1 re-checks both directions of the
-// registrations and re-certifies every changed face and re-registered original after every
-// commit, at tight and coarse levels. It found a false certificate of the overlay once
+// registrations and re-certifies every changed face and re-registered original or cluster
+// after every commit, at tight and coarse levels. It found a false certificate of the overlay once
 // (fandisk, --levels 0.0625,1); an exit 3 here is a broken promise, not a flaky test.
 
 const VERIFY_RUNS = [
@@ -765,5 +765,8 @@ for (const { rel, levels, extra } of VERIFY_RUNS) {
     const summary = JSON.parse(fs.readFileSync(path.join(out, 'simplify.json'), 'utf8'));
     const done = summary.meshes.flatMap((m) => m.levels);
     assert.ok(done.length === levels.split(',').length && done.some((l) => l.commits > 0), 'the checker ran over real commits');
+    // and over clusters registered whole and split again (fandisk: hundreds of each)
+    assert.ok(done.some((l) => l.clusters.merges > 0) && done.some((l) => l.clusters.splits > 0),
+      `the checker saw clusters merged and split: ${JSON.stringify(done.map((l) => l.clusters))}`);
   });
 }
