@@ -134,6 +134,22 @@ static void om_height_field(orig_mesh *m, uint32_t n)
         }
 }
 
+/* Builds m; 0 (after reporting it, m freed) when that fails. */
+static int om_ready(orig_mesh *m)
+{
+    CHECK(om_build(m) == 0, "cert_original_init");
+    if (m->built) return 1;
+    om_free(m);
+    return 0;
+}
+
+/* A built height field of n x n squares, as om_ready. */
+static int height_field_built(orig_mesh *m, uint32_t n)
+{
+    om_height_field(m, n);
+    return om_ready(m);
+}
+
 /* ---- the independent measure ------------------------------------------------ */
 
 static vec3d bary(const vec3d p[3], double u, double v)
@@ -290,11 +306,7 @@ static void obtuse_case(vec3d shift, int rotate)
     om_vertex(&m, o1.x, o1.y, o1.z);
     om_vertex(&m, o2.x, o2.y, o2.z);
     om_tri(&m, 0, 1, 2, 0);
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!om_ready(&m)) return;
     cert_tri f = make_face(fa, fb, fc, 0, 0);
     hint(&m, &f);
     CHECK(!f.degenerate, "face not degenerate");
@@ -438,12 +450,7 @@ static cert_tri random_face(double size, double lift, uint32_t id)
 static void test_face_fuzz(void)
 {
     orig_mesh m;
-    om_height_field(&m, 16);
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!height_field_built(&m, 16)) return;
     int accepted = 0, rejected = 0;
     for (int trial = 0; trial < 400; ++trial) {
         double eps = rng_uniform(0.004, 0.06);
@@ -474,12 +481,7 @@ static void test_face_fuzz(void)
 static void test_cover_fuzz(void)
 {
     orig_mesh m;
-    om_height_field(&m, 16);
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!height_field_built(&m, 16)) return;
     int accepted = 0, rejected = 0;
     for (int trial = 0; trial < 400; ++trial) {
         uint32_t t = (uint32_t)(rng_next() % m.nt);
@@ -561,11 +563,7 @@ static void test_thin_plate_face(void)
 {
     orig_mesh m;
     build_thin_plate(&m);
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!om_ready(&m)) return;
     const double eps = 0.05;
     double bound;
     /* an up-facing face 0.02 below the bottom sheet: 0.02 from the bottom
@@ -597,11 +595,7 @@ static void test_thin_plate_cover(void)
 {
     orig_mesh m;
     build_thin_plate(&m);
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!om_ready(&m)) return;
     const double eps = 0.05;
     uint32_t used[CERT_MAX_WITNESSES], n;
     double bound;
@@ -630,11 +624,7 @@ static void test_material_and_degenerate(void)
     orig_mesh m;
     om_height_field(&m, 8);
     for (uint32_t t = 0; t < m.nt; ++t) m.mat[t] = (t % 16) < 8 ? 1 : 2; /* stripes */
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!om_ready(&m)) return;
     double bound;
     uint32_t used[CERT_MAX_WITNESSES], n;
     /* a face equal to original triangle 0 (material 1) */
@@ -690,11 +680,7 @@ static void test_translated_far(void)
     orig_mesh m;
     om_height_field(&m, 12);
     for (uint32_t i = 0; i < 3 * m.nv; ++i) m.pos[i] = (float)((double)m.pos[i] * 64.0 + 1e5);
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!om_ready(&m)) return;
     int accepted = 0;
     for (int trial = 0; trial < 60; ++trial) {
         cert_tri f = random_face(rng_uniform(0.02, 0.2), 0.002, 0);
@@ -761,11 +747,7 @@ static void overlay_cover_case(vec3d shift)
     om_vertex(&m, 1 + shift.x, shift.y, shift.z);
     om_vertex(&m, shift.x, 1 + shift.y, shift.z);
     om_tri(&m, 0, 1, 2, 0);
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!om_ready(&m)) return;
     const double eps = 1e-3, h = 0.4 * eps;
     const vec3d c = geom_vec3d(0.3, 0.3, 0);
     /* shift the float-rounded original's corners back: the faces are built
@@ -844,11 +826,7 @@ static void overlay_face_case(int hole, double raise, int overhang, int decal)
             om_tri(&m, a, b, d, 0);
             om_tri(&m, a, d, c, 0);
         }
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!om_ready(&m)) return;
     const double eps = 1e-3, h = 0.4 * eps;
     /* corners at grid vertices (1,1), (7,1), (4,7) */
     const uint32_t ids[3] = {1 * (n + 1) + 1, 1 * (n + 1) + 7, 7 * (n + 1) + 4};
@@ -898,12 +876,7 @@ static void test_overlay_face(void)
 static void test_cluster_layout(void)
 {
     orig_mesh m;
-    om_height_field(&m, 24);
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!height_field_built(&m, 24)) return;
     const cert_original *o = &m.o;
     CHECK(o->cluster_count > 1 && o->cluster_count < m.nt, "%u clusters of %u triangles", o->cluster_count, m.nt);
     uint32_t next = 0, agreeing = 0;
@@ -944,12 +917,7 @@ static void test_cluster_layout(void)
 static void test_cluster_fuzz(void)
 {
     orig_mesh m;
-    om_height_field(&m, 16);
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!height_field_built(&m, 16)) return;
     int accepted = 0, rejected = 0;
     for (int trial = 0; trial < 300; ++trial) {
         uint32_t c = (uint32_t)(rng_next() % m.o.cluster_count);
@@ -992,11 +960,7 @@ static void test_cluster_plate_and_materials(void)
 {
     orig_mesh m;
     build_thin_plate(&m);
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!om_ready(&m)) return;
     CHECK(m.o.cluster_count == 1 && m.o.clusters[0].cone_sin > 1.0, "one cluster, no cone");
     uint32_t face;
     double bound;
@@ -1008,11 +972,7 @@ static void test_cluster_plate_and_materials(void)
 
     om_height_field(&m, 4);
     m.mat[5] = 3;
-    CHECK(om_build(&m) == 0, "cert_original_init");
-    if (!m.built) {
-        om_free(&m);
-        return;
-    }
+    if (!om_ready(&m)) return;
     uint32_t c = m.o.cluster_of[5];
     CHECK(m.o.clusters[c].material == CERT_MIXED, "a cluster of two materials is mixed");
     cert_tri big = make_face(geom_vec3d(-2, -2, 0), geom_vec3d(4, -2, 0), geom_vec3d(-2, 4, 0), 0, 1);
