@@ -85,7 +85,9 @@ static int build_clusters(cert_original *o)
     o->cluster_of = malloc(((size_t)o->triangle_count + 1) * sizeof *o->cluster_of);
     uint32_t *below = malloc(((size_t)tree->node_count + 1) * sizeof *below);
     uint32_t *first = malloc(((size_t)tree->node_count + 1) * sizeof *first);
-    o->clusters = malloc(((size_t)o->triangle_count + 1) * sizeof *o->clusters);
+    /* each cluster is a subtree of its own, so there are no more than leaves:
+     * (nodes + 1) / 2 in a tree whose inner nodes have two children */
+    o->clusters = malloc(((size_t)tree->node_count / 2 + 2) * sizeof *o->clusters);
     if (!o->cluster_of || !below || !first || !o->clusters) {
         free(below);
         free(first);
@@ -122,8 +124,6 @@ static int build_clusters(cert_original *o)
     }
     free(below);
     free(first);
-    cert_cluster_info *shrunk = realloc(o->clusters, ((size_t)o->cluster_count + 1) * sizeof *o->clusters);
-    if (shrunk) o->clusters = shrunk;
     return 0;
 }
 
