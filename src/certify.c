@@ -459,13 +459,7 @@ static double corners_within(const cert_tri *f, const vec3d p[3], const vec3d *c
     if (box_distance2(f, centre) > reach * reach) return INFINITY;
     vec3d tri[3];
     for (int k = 0; k < 3; ++k) tri[k] = geom_vec3d_from_doubles(f->p[k]);
-    double worst = 0.0;
-    for (int k = 0; k < 3; ++k) {
-        double d2 = geom_point_triangle_distance2(&p[k], &tri[0], &tri[1], &tri[2], NULL);
-        if (!(d2 <= accept * accept)) return INFINITY;
-        if (d2 > worst) worst = d2;
-    }
-    return sqrt(worst);
+    return max_corner_distance(p, tri, accept);
 }
 
 /* ---- (b) overlay: t partitioned by the projections of the candidate faces -- */
@@ -626,14 +620,14 @@ static double cluster_within(const cert_original *o, const cert_cluster_info *c,
     if (d + c->radius <= accept) return d + c->radius;
     double worst = 0.0;
     const uint32_t *order = o->tree.triangle_order + c->first;
-    for (uint32_t i = 0; i < c->count; ++i)
-        for (int k = 0; k < 3; ++k) {
-            const vec3d p = vertex_of(o, o->triangles[3 * (size_t)order[i] + k]);
-            double d2 = geom_point_triangle_distance2(&p, &tri[0], &tri[1], &tri[2], NULL);
-            if (!(d2 <= accept * accept)) return INFINITY;
-            if (d2 > worst) worst = d2;
-        }
-    return sqrt(worst);
+    for (uint32_t i = 0; i < c->count; ++i) {
+        vec3d corners[3];
+        triangle_of(o, order[i], corners);
+        const double m = max_corner_distance(corners, tri, accept);
+        if (!(m <= accept)) return INFINITY;
+        if (m > worst) worst = m;
+    }
+    return worst;
 }
 
 int cert_cluster(const cert_original *o, uint32_t c, const cert_tri *faces, uint32_t count, double eps,

@@ -68,12 +68,12 @@ void registry_set(registry *r, uint32_t t, const uint32_t *faces, uint32_t count
 
 void registry_set_cluster(registry *r, uint32_t c, uint32_t f)
 {
-    link_slot(r, (uint32_t)((size_t)r->original_count * REGISTRY_SLOTS + c), f);
+    link_slot(r, registry_cluster_slot(r, c), f);
 }
 
 void registry_clear_cluster(registry *r, uint32_t c)
 {
-    unlink_slot(r, (uint32_t)((size_t)r->original_count * REGISTRY_SLOTS + c));
+    unlink_slot(r, registry_cluster_slot(r, c));
 }
 
 int registry_verify(const registry *r, const uint8_t *face_alive, char *msg, size_t msg_size)

@@ -50,17 +50,22 @@ void registry_set(registry *r, uint32_t t, const uint32_t *faces, uint32_t count
  * registry_clear of each of its originals), or removes that registration. */
 void registry_set_cluster(registry *r, uint32_t c, uint32_t f);
 void registry_clear_cluster(registry *r, uint32_t c);
+/* The slot of cluster c: after every original's. */
+static inline uint32_t registry_cluster_slot(const registry *r, uint32_t c)
+{
+    return r->original_count * REGISTRY_SLOTS + c;
+}
 /* The face cluster c is registered to whole, or REGISTRY_NONE. */
 static inline uint32_t registry_cluster_face(const registry *r, uint32_t c)
 {
-    return r->slot_face[(size_t)r->original_count * REGISTRY_SLOTS + c];
+    return r->slot_face[registry_cluster_slot(r, c)];
 }
 /* For a slot met in a face's list: the cluster it registers, or
  * REGISTRY_NONE when it is an original's (original = slot / REGISTRY_SLOTS). */
 static inline uint32_t registry_slot_cluster(const registry *r, uint32_t slot)
 {
-    const size_t base = (size_t)r->original_count * REGISTRY_SLOTS;
-    return slot >= base ? (uint32_t)(slot - base) : REGISTRY_NONE;
+    const uint32_t base = registry_cluster_slot(r, 0);
+    return slot >= base ? slot - base : REGISTRY_NONE;
 }
 
 /* Calls visit(context, t) for each original registered to face f (an original

@@ -136,7 +136,6 @@ typedef struct sim {
      * unit nf + c; its certified bound and the batch that last changed it */
     double *unit_bound;
     uint32_t *unit_stamp;
-    uint32_t unit_count;
     uint8_t *cluster_dirty; /* one of its originals was re-registered: try it whole again */
     uint32_t *vertex_first;
     uint8_t *vertex_alive;
@@ -818,6 +817,18 @@ static void stamp_changes(sim *s, uint32_t v)
             for (int j = 0; j < 3; ++j) s->change_stamp[s->corner_vertex[3 * (c / 3) + j]] = clock;
 }
 
+/* Has a commit after `clock` stamped u or a vertex of a face around it (so a
+ * face within two edges of u changed)? */
+static int changed_since(const sim *s, uint32_t u, uint32_t clock)
+{
+    if (s->change_stamp[u] > clock) return 1;
+    for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c])
+        if (s->face_alive[c / 3] && s->corner_vertex[c] == u)
+            for (int j = 0; j < 3; ++j)
+                if (s->change_stamp[s->corner_vertex[3 * (c / 3) + j]] > clock) return 1;
+    return 0;
+}
+
 /* Drops corners of dead faces and corners that no longer belong to v. */
 static void prune_corner_list(sim *s, uint32_t v)
 {
@@ -1113,12 +1124,8 @@ static size_t collect_candidates(sim *s, ranked *out)
     double place[3];
     for (uint32_t u = 0; u < s->nv; ++u) {
         if (!s->vertex_alive[u] || s->w->vertex_kind[u] == WELD_LOCKED) continue;
-        if (s->reject_stamp[u] != NONE) { /* rejected: has a face around a neighbour changed since? */
-            int changed = s->change_stamp[u] > s->reject_stamp[u];
-            for (uint32_t c = s->vertex_first[u]; c != NONE && !changed; c = s->corner_next[c])
-                if (s->face_alive[c / 3] && s->corner_vertex[c] == u)
-                    for (int j = 0; j < 3; ++j) changed |= s->change_stamp[s->corner_vertex[3 * (c / 3) + j]] > s->reject_stamp[u];
-            if (!changed) continue;
+        if (s->reject_stamp[u] != NONE) {
+            if (!changed_since(s, u, s->reject_stamp[u])) continue;
             s->reject_stamp[u] = NONE;
         }
         double best = INFINITY;
@@ -1499,9 +1506,9 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
                            w->vertex_triangle_offsets, w->vertex_triangles))
         return -1;
     const uint32_t clusters = s->orig.cluster_count;
-    s->unit_count = nf + clusters;
-    s->unit_bound = calloc((size_t)s->unit_count + 1, sizeof *s->unit_bound);
-    s->unit_stamp = calloc((size_t)s->unit_count + 1, sizeof *s->unit_stamp);
+    const size_t units = (size_t)nf + clusters;
+    s->unit_bound = calloc(units + 1, sizeof *s->unit_bound);
+    s->unit_stamp = calloc(units + 1, sizeof *s->unit_stamp);
     s->cluster_dirty = malloc((size_t)clusters + 1);
     if (!s->unit_bound || !s->unit_stamp || !s->cluster_dirty) return -1;
     if (registry_init(&s->reg, nf, s->orig.cluster_of, clusters)) return -1;
