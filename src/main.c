@@ -331,21 +331,73 @@ static int write_bytes(const char *path, char *bytes, size_t size)
     return rc;
 }
 
+/* The mesh's welded vertices as OBJ "v" lines, formatted once: every level
+ * of a half-edge chain repeats them, and printf of 3 floats a line was most of
+ * the time spent writing a large mesh's levels. line[v] .. line[v + 1] is
+ * vertex v's line in text. %.9g prints every float exactly. */
+typedef struct obj_vertex_lines {
+    char *text;
+    size_t size;
+    size_t *line; /* vertex_count + 1 offsets */
+} obj_vertex_lines;
+
+static int format_vertex(FILE *f, const float *p)
+{
+    return fprintf(f, "v %.9g %.9g %.9g\n", p[0], p[1], p[2]) < 0;
+}
+
+static int obj_vertex_lines_init(obj_vertex_lines *l, const weld_result *w)
+{
+    l->text = NULL;
+    l->size = 0;
+    l->line = malloc(((size_t)w->vertex_count + 1) * sizeof *l->line);
+    FILE *f = l->line ? open_memstream(&l->text, &l->size) : NULL;
+    if (!f) {
+        free(l->line);
+        return LP_IO;
+    }
+    int bad = 0;
+    for (uint32_t v = 0; v < w->vertex_count && !bad; ++v) {
+        long at = ftell(f);
+        bad = at < 0 || format_vertex(f, w->positions + 3 * (size_t)v);
+        l->line[v] = (size_t)at;
+    }
+    long end = ftell(f);
+    l->line[w->vertex_count] = (size_t)end;
+    if (fclose(f) || bad || end < 0) {
+        free(l->text);
+        free(l->line);
+        return LP_IO;
+    }
+    return LP_OK;
+}
+
+static void obj_vertex_lines_free(obj_vertex_lines *l)
+{
+    free(l->text);
+    free(l->line);
+}
+
 /* One level as OBJ: the mesh's welded vertices (shared by all levels; at
  * `positions` when a level placed vertices, else the weld's) and the level's
- * faces. %.9g prints every float exactly. */
-static int write_obj(const char *path, const weld_result *w, const float *positions, const uint32_t *face_vertices,
-                     uint32_t face_count, const uint32_t *face_wedges)
+ * faces. A vertex at the weld's position reuses its formatted line. */
+static int write_obj(const char *path, const weld_result *w, const obj_vertex_lines *lines, const float *positions,
+                     const uint32_t *face_vertices, uint32_t face_count, const uint32_t *face_wedges)
 {
     char *buf = NULL;
     size_t size = 0;
     FILE *f = open_memstream(&buf, &size);
-    if (!f) return LP_IO;
-    if (!positions) positions = w->positions;
-    for (uint32_t v = 0; v < w->vertex_count; ++v)
-        fprintf(f, "v %.9g %.9g %.9g\n", positions[3 * (size_t)v], positions[3 * (size_t)v + 1],
-                positions[3 * (size_t)v + 2]);
-    for (uint32_t t = 0; t < face_count; ++t) {
+    int bad = !f;
+    for (uint32_t v = 0; v < w->vertex_count && !bad; ++v) {
+        const float *p = positions ? positions + 3 * (size_t)v : NULL;
+        if (p && memcmp(p, w->positions + 3 * (size_t)v, 3 * sizeof *p) != 0) {
+            bad = format_vertex(f, p);
+            continue;
+        }
+        size_t n = lines->line[v + 1] - lines->line[v];
+        bad = fwrite(lines->text + lines->line[v], 1, n, f) != n;
+    }
+    for (uint32_t t = 0; t < face_count && !bad; ++t) {
         uint32_t a, b, c;
         if (face_vertices) {
             a = face_vertices[3 * (size_t)t];
@@ -356,9 +408,14 @@ static int write_obj(const char *path, const weld_result *w, const float *positi
             b = w->wedge_vertex[face_wedges[3 * (size_t)t + 1]];
             c = w->wedge_vertex[face_wedges[3 * (size_t)t + 2]];
         }
-        fprintf(f, "f %u %u %u\n", a + 1, b + 1, c + 1);
+        bad = fprintf(f, "f %u %u %u\n", a + 1, b + 1, c + 1) < 0;
     }
-    fclose(f);
+    if (!f || fclose(f) || bad) {
+        free(buf);
+        lp_error e = {0, ""};
+        lp_fail(&e, LP_IO, "out of memory formatting the OBJ");
+        return report(path, &e);
+    }
     int rc = write_bytes(path, buf, size);
     free(buf);
     return rc;
@@ -423,11 +480,21 @@ static int cmd_simplify(const cli *c)
             break;
         }
         {
-            snprintf(path, sizeof path, "%s/mesh%u_level0.obj", dir, m);
-            rc = write_obj(path, &w, NULL, w.triangle_vertices, w.triangle_count, NULL);
-            for (uint32_t k = 0; k < r.level_count && !rc; ++k) {
-                snprintf(path, sizeof path, "%s/mesh%u_level%u.obj", dir, m, k + 1);
-                rc = write_obj(path, &w, r.levels[k].positions, NULL, r.levels[k].triangle_count, r.levels[k].wedges);
+            obj_vertex_lines lines;
+            rc = obj_vertex_lines_init(&lines, &w);
+            if (!rc) {
+                snprintf(path, sizeof path, "%s/mesh%u_level0.obj", dir, m);
+                rc = write_obj(path, &w, &lines, NULL, w.triangle_vertices, w.triangle_count, NULL);
+                for (uint32_t k = 0; k < r.level_count && !rc; ++k) {
+                    snprintf(path, sizeof path, "%s/mesh%u_level%u.obj", dir, m, k + 1);
+                    rc = write_obj(path, &w, &lines, r.levels[k].positions, NULL, r.levels[k].triangle_count,
+                                   r.levels[k].wedges);
+                }
+                obj_vertex_lines_free(&lines);
+            } else {
+                lp_error e = {0, ""};
+                lp_fail(&e, LP_IO, "out of memory formatting the level OBJs");
+                report(dir, &e);
             }
             fprintf(j, "%s{\"mesh\":%u,\"name\":", first ? "" : ",", m);
             json_string(j, mesh->name);
