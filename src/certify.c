@@ -240,12 +240,24 @@ static void split4(const vec3d p[3], vec3d out[4][3])
 
 enum { FLOOD_PENDING = 0, FLOOD_ACCEPTED = 1, FLOOD_PASSED_OVER = 2 };
 
+#define FLOOD_TABLE 512 /* open-addressing index of the queued ids: >= 2 * OVERLAY_MAX_ORIGINALS, a power of 2 */
+
 typedef struct flood {
     uint32_t id[OVERLAY_MAX_ORIGINALS];
     uint8_t required[OVERLAY_MAX_ORIGINALS];
     uint8_t state[OVERLAY_MAX_ORIGINALS];
+    uint16_t slot[FLOOD_TABLE]; /* index into id, or FLOOD_EMPTY */
     uint32_t count;
 } flood;
+
+#define FLOOD_EMPTY UINT16_MAX
+_Static_assert(FLOOD_TABLE == 512 && FLOOD_TABLE >= 2 * OVERLAY_MAX_ORIGINALS, "flood_add hashes to 9 bits");
+
+static void flood_init(flood *q)
+{
+    q->count = 0;
+    memset(q->slot, 0xff, sizeof q->slot);
+}
 
 /* Queues original t (once). Returns 0 when the flood must fail: it is full,
  * or t is required now but was already passed over as an optional corner
@@ -253,13 +265,18 @@ typedef struct flood {
  * needs it has no accepted neighbour. */
 static int flood_add(flood *q, uint32_t t, int required)
 {
-    for (uint32_t i = 0; i < q->count; ++i)
+    uint32_t h = (t * 0x9e3779b1u) >> 23; /* top 9 bits: FLOOD_TABLE slots */
+    for (;; h = (h + 1) & (FLOOD_TABLE - 1)) {
+        const uint16_t i = q->slot[h];
+        if (i == FLOOD_EMPTY) break;
         if (q->id[i] == t) {
             if (required && q->state[i] == FLOOD_PASSED_OVER) return 0;
             q->required[i] |= (uint8_t)required;
             return 1;
         }
+    }
     if (q->count == OVERLAY_MAX_ORIGINALS) return 0;
+    q->slot[h] = (uint16_t)q->count;
     q->id[q->count] = t;
     q->state[q->count] = FLOOD_PENDING;
     q->required[q->count++] = (uint8_t)required;
@@ -301,7 +318,7 @@ static int overlay_a(const cert_original *o, face_filter *filter, const vec3d p[
     overlay_subject sub;
     if (!overlay_subject_init(&sub, p)) return 0;
     flood q;
-    q.count = 0;
+    flood_init(&q);
     for (int k = 0; k < 3; ++k)
         for (uint32_t i = o->vertex_offsets[f->vertex[k]]; i < o->vertex_offsets[f->vertex[k] + 1]; ++i)
             if (!flood_add(&q, o->vertex_triangles[i], 0)) return 0;

@@ -1160,8 +1160,13 @@ static int reserve_footprint(sim *s, uint32_t u)
     sc->ring.size = 0;
     if (next_stamp(sc) || u32_push(&sc->ring, u)) return sc->oom = 1, 0;
     sc->vertex_seen[u] = sc->stamp;
+    /* each vertex is checked as it is reached, so a candidate that must wait
+     * (most of them, late in a pass) stops at the first conflict; u and its
+     * 1-ring are in W, the 2-ring only with full-edge placement */
+    if (s->vertex_stamp[u] == s->batch_stamp || s->vertex_read_stamp[u] == s->batch_stamp) return 0;
     size_t begin = 0, one_ring_end = 1;
     for (int depth = 0; depth < 2; ++depth) {
+        const int writes = depth == 0 || s->full_edge;
         size_t end = sc->ring.size;
         for (size_t i = begin; i < end; ++i) {
             uint32_t x = sc->ring.data[i];
@@ -1171,6 +1176,8 @@ static int reserve_footprint(sim *s, uint32_t u)
                     uint32_t y = s->corner_vertex[3 * (c / 3) + k];
                     if (sc->vertex_seen[y] == sc->stamp) continue;
                     sc->vertex_seen[y] = sc->stamp;
+                    if (s->vertex_stamp[y] == s->batch_stamp) return 0;                /* R meets a W */
+                    if (writes && s->vertex_read_stamp[y] == s->batch_stamp) return 0; /* W meets an R */
                     if (u32_push(&sc->ring, y)) return sc->oom = 1, 0;
                 }
             }
@@ -1179,11 +1186,6 @@ static int reserve_footprint(sim *s, uint32_t u)
         if (depth == 0) one_ring_end = sc->ring.size;
     }
     const size_t write_end = s->full_edge ? sc->ring.size : one_ring_end;
-    for (size_t i = 0; i < sc->ring.size; ++i) {
-        uint32_t x = sc->ring.data[i];
-        if (s->vertex_stamp[x] == s->batch_stamp) return 0;                     /* R meets a W */
-        if (i < write_end && s->vertex_read_stamp[x] == s->batch_stamp) return 0; /* W meets an R */
-    }
     for (size_t i = 0; i < sc->ring.size; ++i) {
         s->vertex_read_stamp[sc->ring.data[i]] = s->batch_stamp;
         if (i < write_end) s->vertex_stamp[sc->ring.data[i]] = s->batch_stamp;
