@@ -139,6 +139,10 @@ typedef struct sim {
     uint8_t *cluster_dirty; /* one of its originals was re-registered: try it whole again */
     uint32_t *vertex_first;
     uint8_t *vertex_alive;
+    /* the alive vertices that are not locked, ascending: the passes late in
+     * a level would otherwise scan every vertex of the original for a few
+     * candidates (compacted as vertices die) */
+    uint32_t *movable, movable_count;
     /* a rejected candidate waits until its neighbourhood changes: commits
      * are numbered (commit_clock); change_stamp[x] is the last commit that
      * changed a face around x, reject_stamp[u] the clock when u was rejected
@@ -1121,9 +1125,12 @@ static void sort_ranked(ranked *a, size_t n)
 static size_t collect_candidates(sim *s, ranked *out)
 {
     size_t n = 0;
+    uint32_t kept = 0;
     double place[3];
-    for (uint32_t u = 0; u < s->nv; ++u) {
-        if (!s->vertex_alive[u] || s->w->vertex_kind[u] == WELD_LOCKED) continue;
+    for (uint32_t i = 0; i < s->movable_count; ++i) {
+        const uint32_t u = s->movable[i];
+        if (!s->vertex_alive[u]) continue;
+        s->movable[kept++] = u;
         if (s->reject_stamp[u] != NONE) {
             if (!changed_since(s, u, s->reject_stamp[u])) continue;
             s->reject_stamp[u] = NONE;
@@ -1142,6 +1149,7 @@ static size_t collect_candidates(sim *s, ranked *out)
             n++;
         }
     }
+    s->movable_count = kept;
     sort_ranked(out, n);
     return n;
 }
@@ -1397,6 +1405,7 @@ static void sim_free(sim *s)
     free(s->cluster_dirty);
     free(s->vertex_first);
     free(s->vertex_alive);
+    free(s->movable);
     free(s->change_stamp);
     free(s->reject_stamp);
     free(s->vertex_stamp);
@@ -1464,6 +1473,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     s->face_bound = calloc((size_t)nf + 1, sizeof *s->face_bound);
     s->vertex_first = malloc(((size_t)nv + 1) * sizeof *s->vertex_first);
     s->vertex_alive = malloc((size_t)nv + 1);
+    s->movable = malloc(((size_t)nv + 1) * sizeof *s->movable);
     s->change_stamp = calloc((size_t)nv + 1, sizeof *s->change_stamp);
     s->reject_stamp = malloc(((size_t)nv + 1) * sizeof *s->reject_stamp);
     s->vertex_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_stamp);
@@ -1475,7 +1485,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
         for (uint32_t v = 0; v < nv; ++v)
             s->special[v] = w->vertex_kind[v] == WELD_BORDER || w->vertex_kind[v] == WELD_LOCKED;
     if (!s->special || !s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next || !s->face_alive ||
-        !s->face_bound || !s->vertex_first || !s->vertex_alive || !s->change_stamp ||
+        !s->face_bound || !s->vertex_first || !s->vertex_alive || !s->movable || !s->change_stamp ||
         !s->reject_stamp || !s->vertex_stamp || !s->vertex_read_stamp || !s->quadrics || !s->face_commit_stamp)
         return -1;
     for (uint32_t t = 0; t < s->thread_count; ++t)
@@ -1488,6 +1498,8 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     memcpy(s->corner_vertex, w->triangle_vertices, 3 * (size_t)nf * sizeof *s->corner_vertex);
     memset(s->face_alive, 1, nf);
     memset(s->vertex_alive, 1, nv);
+    for (uint32_t v = 0; v < nv; ++v)
+        if (w->vertex_kind[v] != WELD_LOCKED) s->movable[s->movable_count++] = v;
     memset(s->vertex_first, 0xff, ((size_t)nv + 1) * sizeof *s->vertex_first);
     memset(s->reject_stamp, 0xff, ((size_t)nv + 1) * sizeof *s->reject_stamp);
     for (uint32_t c = 3 * nf; c-- > 0;) { /* lists in ascending corner order */
