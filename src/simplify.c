@@ -159,6 +159,12 @@ typedef struct sim {
     uint32_t grid_built_with;
     uint32_t faces_alive;        /* count of face_alive */
     uint32_t *face_commit_stamp; /* batch in which a commit last changed the face */
+    /* the stars committed in the current batch: per star its alive faces
+     * (batch_faces[batch_star_end[i - 1] .. batch_star_end[i] - 1]) and their
+     * box (batch_star_box[6 i ..], lo then hi), for the commit's re-test of
+     * crossings, which concerns only these faces */
+    u32vec batch_faces, batch_star_end;
+    f64vec batch_star_box;
     registry reg;
     cert_original orig;
     uint8_t *death;
@@ -495,15 +501,13 @@ static int crosses(void *context, uint32_t g)
     return 0;
 }
 
-/* 1 when a face of the new star would cross another face of the level or
- * another new face (only_stamp: only faces committed in that batch). One
- * grid query over the star's box: its faces overlap, and one query per face
- * would meet the same neighbours several times. */
-static int star_crosses(const sim *s, scratch *sc, const collapse *cl, uint32_t only_stamp)
+/* The new star's faces into sc->tris, and their box. Returns the face count,
+ * or -1 when memory runs out. */
+static long new_star(const sim *s, scratch *sc, const collapse *cl, double lo[3], double hi[3])
 {
     const size_t n = sc->changed.size;
-    if (grow((void **)&sc->tris, &sc->tris_cap, n + 1, sizeof *sc->tris)) return sc->oom = 1, 1;
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    if (grow((void **)&sc->tris, &sc->tris_cap, n + 1, sizeof *sc->tris)) return -1;
+    for (int a = 0; a < 3; ++a) lo[a] = INFINITY, hi[a] = -INFINITY;
     for (size_t i = 0; i < n; ++i) {
         face_after(s, sc->changed.data[i], cl, &sc->tris[i]);
         for (int a = 0; a < 3; ++a) {
@@ -511,12 +515,48 @@ static int star_crosses(const sim *s, scratch *sc, const collapse *cl, uint32_t 
             hi[a] = fmax(hi[a], sc->tris[i].hi[a]);
         }
     }
-    if (!only_stamp)
-        for (size_t i = 0; i < n; ++i)
-            for (size_t j = i + 1; j < n; ++j)
-                if (intersect_triangles((const double(*)[3])sc->tris[i].p, (const double(*)[3])sc->tris[j].p)) return 1;
+    return (long)n;
+}
+
+/* The commit's re-test: 1 when a face of the new star would cross a face
+ * that an earlier commit of this batch changed (those were not there when the
+ * candidate was tested). Only the stars committed in this batch are visited,
+ * not the grid: the same faces (stamped with this batch), far fewer
+ * visits. */
+static int crosses_batch(const sim *s, scratch *sc, const collapse *cl)
+{
+    double lo[3], hi[3];
+    long n = new_star(s, sc, cl, lo, hi);
+    if (n < 0) return sc->oom = 1, 1;
+    if (n == 0) return 0;
+    crossing_query q = {s, sc->tris, (size_t)n, cl, s->batch_stamp};
+    uint32_t begin = 0;
+    for (size_t i = 0; i < s->batch_star_end.size; ++i) {
+        const double *box = s->batch_star_box.data + 6 * i;
+        const uint32_t end = s->batch_star_end.data[i];
+        int apart = 0;
+        for (int a = 0; a < 3; ++a) apart |= box[a] > hi[a] || box[3 + a] < lo[a];
+        if (!apart)
+            for (uint32_t k = begin; k < end; ++k)
+                if (crosses(&q, s->batch_faces.data[k])) return 1;
+        begin = end;
+    }
+    return 0;
+}
+
+/* 1 when a face of the new star would cross another face of the level or
+ * another new face. One grid query over the star's box: its faces overlap,
+ * and one query per face would meet the same neighbours several times. */
+static int star_crosses(const sim *s, scratch *sc, const collapse *cl)
+{
+    double lo[3], hi[3];
+    long n = new_star(s, sc, cl, lo, hi);
+    if (n < 0) return sc->oom = 1, 1;
+    for (long i = 0; i < n; ++i)
+        for (long j = i + 1; j < n; ++j)
+            if (intersect_triangles((const double(*)[3])sc->tris[i].p, (const double(*)[3])sc->tris[j].p)) return 1;
     if (!n) return 0;
-    crossing_query q = {s, sc->tris, n, cl, only_stamp};
+    crossing_query q = {s, sc->tris, (size_t)n, cl, 0};
     return facegrid_query(&s->grid, lo, hi, crosses, &q);
 }
 
@@ -738,7 +778,7 @@ static void evaluate(const sim *s, scratch *sc, candidate *c)
                 c->reason = SIMPLIFY_REJECT_FLIP;
                 continue;
             }
-            if (star_is_thin(s, sc, cl) && star_crosses(s, sc, cl, 0)) {
+            if (star_is_thin(s, sc, cl) && star_crosses(s, sc, cl)) {
                 if (sc->oom) return;
                 c->reason = SIMPLIFY_REJECT_INTERSECT;
                 continue;
@@ -866,7 +906,7 @@ static int commit(sim *s, const candidate *c)
     if (gather_changed(s, sc, &cl)) return sc->oom = 1, 0;
     /* faces committed earlier in this batch were not there when the candidate
      * was tested for crossings */
-    if (star_is_thin(s, sc, &cl) && star_crosses(s, sc, &cl, s->batch_stamp)) return 0;
+    if (star_is_thin(s, sc, &cl) && crosses_batch(s, sc, &cl)) return 0;
     if (sc->oom) return 0;
     /* which of v's wedges replaces u's in each face: read from the faces on
      * edge (u, v), one per side (two for a seam) */
@@ -902,6 +942,7 @@ static int commit(sim *s, const candidate *c)
     }
     /* the faces that moved: u's, and v's when v moved (the faces on the edge
      * are in both lists, dead by now) */
+    double star_box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (int side = 0; side < (cl.moved ? 2 : 1); ++side) {
         const u32vec *star = side ? &sc->faces_v : &sc->faces_u;
         for (size_t i = 0; i < star->size; ++i) {
@@ -914,8 +955,16 @@ static int commit(sim *s, const candidate *c)
             face_after(s, f, NULL, &t);
             if (facegrid_insert(&s->grid, f, t.lo, t.hi) != FACEGRID_OK) return sc->oom = 1, 0;
             s->face_commit_stamp[f] = s->batch_stamp;
+            if (u32_push(&s->batch_faces, f)) return sc->oom = 1, 0;
+            for (int a = 0; a < 3; ++a) {
+                star_box[a] = fmin(star_box[a], t.lo[a]);
+                star_box[3 + a] = fmax(star_box[3 + a], t.hi[a]);
+            }
         }
     }
+    if (u32_push(&s->batch_star_end, (uint32_t)s->batch_faces.size)) return sc->oom = 1, 0;
+    for (int a = 0; a < 6; ++a)
+        if (f64_push(&s->batch_star_box, star_box[a])) return sc->oom = 1, 0;
     for (uint32_t i = 0; i < c->changed_count; ++i) s->face_bound[changed[i]] = changed_bounds[i];
     for (uint32_t i = 0; i < c->recheck_count; ++i) {
         const uint32_t *r = regs + (size_t)i * (2 + CERT_MAX_WITNESSES);
@@ -1336,6 +1385,7 @@ static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
             *commits = -1;
             return;
         }
+    s->batch_faces.size = s->batch_star_end.size = s->batch_star_box.size = 0;
     for (size_t i = 0; i < count; ++i) {
         candidate *c = &batch[i];
         st->candidates++;
@@ -1406,6 +1456,9 @@ static void sim_free(sim *s)
     free(s->vertex_first);
     free(s->vertex_alive);
     free(s->movable);
+    free(s->batch_faces.data);
+    free(s->batch_star_end.data);
+    free(s->batch_star_box.data);
     free(s->change_stamp);
     free(s->reject_stamp);
     free(s->vertex_stamp);
