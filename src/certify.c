@@ -127,6 +127,45 @@ static int build_clusters(cert_original *o)
     return 0;
 }
 
+/* Each cluster's distinct vertices: its triangles share most of their
+ * corners (32 triangles have about 20 vertices, not 96), and the whole-cluster
+ * test measures every vertex against a face. */
+static int collect_cluster_vertices(cert_original *o, uint32_t vertex_count)
+{
+    uint32_t *seen = malloc(((size_t)vertex_count + 1) * sizeof *seen);
+    o->cluster_vertex_start = malloc(((size_t)o->cluster_count + 1) * sizeof *o->cluster_vertex_start);
+    size_t cap = (size_t)o->triangle_count + 16, n = 0;
+    o->cluster_vertices = malloc(cap * sizeof *o->cluster_vertices);
+    if (!seen || !o->cluster_vertex_start || !o->cluster_vertices) {
+        free(seen);
+        return -1;
+    }
+    memset(seen, 0xff, ((size_t)vertex_count + 1) * sizeof *seen);
+    for (uint32_t c = 0; c < o->cluster_count; ++c) {
+        const cert_cluster_info *info = &o->clusters[c];
+        o->cluster_vertex_start[c] = (uint32_t)n;
+        for (uint32_t i = 0; i < info->count; ++i)
+            for (int k = 0; k < 3; ++k) {
+                const uint32_t v = o->triangles[3 * (size_t)o->tree.triangle_order[info->first + i] + k];
+                if (seen[v] == c) continue;
+                seen[v] = c;
+                if (n == cap) {
+                    uint32_t *grown = realloc(o->cluster_vertices, 2 * cap * sizeof *grown);
+                    if (!grown) {
+                        free(seen);
+                        return -1;
+                    }
+                    o->cluster_vertices = grown;
+                    cap *= 2;
+                }
+                o->cluster_vertices[n++] = v;
+            }
+    }
+    o->cluster_vertex_start[o->cluster_count] = (uint32_t)n;
+    free(seen);
+    return 0;
+}
+
 int cert_original_init(cert_original *o, const float *positions, uint32_t vertex_count,
                        const uint32_t *triangles, uint32_t triangle_count, const int32_t *material,
                        const uint32_t *vertex_offsets, const uint32_t *vertex_triangles)
@@ -153,7 +192,7 @@ int cert_original_init(cert_original *o, const float *positions, uint32_t vertex
         o->normals[3 * (size_t)t + 2] = n.z;
     }
     if (bvh_build(&o->tree, positions, vertex_count, triangles, triangle_count) != BVH_OK ||
-        build_clusters(o) != 0) {
+        build_clusters(o) != 0 || collect_cluster_vertices(o, vertex_count) != 0) {
         cert_original_free(o);
         return -1;
     }
@@ -166,6 +205,8 @@ void cert_original_free(cert_original *o)
     free(o->degenerate);
     free(o->clusters);
     free(o->cluster_of);
+    free(o->cluster_vertex_start);
+    free(o->cluster_vertices);
     bvh_free(&o->tree);
     memset(o, 0, sizeof *o);
 }
@@ -635,16 +676,16 @@ static double cluster_within(const cert_original *o, const cert_cluster_info *c,
     for (int k = 0; k < 3; ++k) tri[k] = geom_vec3d_from_doubles(f->p[k]);
     const double d = sqrt(geom_point_triangle_distance2(&centre, &tri[0], &tri[1], &tri[2], NULL));
     if (d + c->radius <= accept) return d + c->radius;
-    double worst = 0.0;
-    const uint32_t *order = o->tree.triangle_order + c->first;
-    for (uint32_t i = 0; i < c->count; ++i) {
-        vec3d corners[3];
-        triangle_of(o, order[i], corners);
-        const double m = max_corner_distance(corners, tri, accept);
-        if (!(m <= accept)) return INFINITY;
-        if (m > worst) worst = m;
+    /* convexity: every triangle is within accept when its corners are */
+    const size_t c_index = (size_t)(c - o->clusters);
+    double worst2 = 0.0;
+    for (uint32_t i = o->cluster_vertex_start[c_index]; i < o->cluster_vertex_start[c_index + 1]; ++i) {
+        const vec3d x = vertex_of(o, o->cluster_vertices[i]);
+        const double d2 = geom_point_triangle_distance2(&x, &tri[0], &tri[1], &tri[2], NULL);
+        if (!(d2 <= accept * accept)) return INFINITY; /* NaN too: never accepted */
+        if (d2 > worst2) worst2 = d2;
     }
-    return worst;
+    return sqrt(worst2);
 }
 
 int cert_cluster(const cert_original *o, uint32_t c, const cert_tri *faces, uint32_t count, double eps,

@@ -72,6 +72,9 @@ typedef struct cert_original {
     cert_cluster_info *clusters;     /* owned */
     uint32_t cluster_count;
     uint32_t *cluster_of;            /* owned: per triangle */
+    /* owned: the distinct vertices of cluster c's triangles are
+     * cluster_vertices[cluster_vertex_start[c] .. cluster_vertex_start[c + 1] - 1] */
+    uint32_t *cluster_vertex_start, *cluster_vertices;
 } cert_original;
 
 /* Builds normals and the BVH. Returns 0, or -1 (out of memory / bad input). */
