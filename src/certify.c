@@ -24,6 +24,11 @@ static void triangle_of(const cert_original *o, uint32_t t, vec3d out[3])
     for (int k = 0; k < 3; ++k) out[k] = vertex_of(o, o->triangles[3 * (size_t)t + k]);
 }
 
+static double triangle_area(const vec3d p[3])
+{
+    return 0.5 * geom_length(geom_cross(geom_sub(p[1], p[0]), geom_sub(p[2], p[0])));
+}
+
 /* The ball, normal cone and material of cluster c (its range set). */
 static void describe_cluster(const cert_original *o, cert_cluster_info *c)
 {
@@ -183,14 +188,17 @@ int cert_original_init(cert_original *o, const float *positions, uint32_t vertex
         cert_original_free(o);
         return -1;
     }
+    double area = 0.0;
     for (uint32_t t = 0; t < triangle_count; ++t) {
         vec3d p[3], n;
         triangle_of(o, t, p);
+        area += triangle_area(p);
         o->degenerate[t] = !geom_triangle_unit_normal(&p[0], &p[1], &p[2], &n);
         o->normals[3 * (size_t)t] = n.x;
         o->normals[3 * (size_t)t + 1] = n.y;
         o->normals[3 * (size_t)t + 2] = n.z;
     }
+    o->mean_area = triangle_count ? area / triangle_count : 0.0;
     if (bvh_build(&o->tree, positions, vertex_count, triangles, triangle_count) != BVH_OK ||
         build_clusters(o) != 0 || collect_cluster_vertices(o, vertex_count) != 0) {
         cert_original_free(o);
@@ -394,6 +402,15 @@ static int overlay_a(const cert_original *o, face_filter *filter, const vec3d p[
     return 1;
 }
 
+static int overlay_now(const cert_original *o, face_filter *filter, const vec3d p[3], const cert_tri *f, double accept,
+                       double *bound)
+{
+    double overlay_bound = 0.0;
+    if (!overlay_a(o, filter, p, f, accept, &overlay_bound)) return 0;
+    if (overlay_bound > *bound) *bound = overlay_bound;
+    return 1;
+}
+
 static int piece_a(const cert_original *o, face_filter *filter, const cert_tri *f, const vec3d p[3], int depth,
                    double eps, double accept, double *bound)
 {
@@ -428,19 +445,24 @@ static int piece_a(const cert_original *o, face_filter *filter, const cert_tri *
         if (best > *bound) *bound = best;
         return 1;
     }
-    if (depth == 0) {
-        double overlay_bound = 0.0;
-        if (overlay_a(o, filter, p, f, accept, &overlay_bound)) {
-            if (overlay_bound > *bound) *bound = overlay_bound;
+    /* The overlay, then the four quarters; except on a face larger than
+     * OVERLAY_MAX_ORIGINALS originals of mean area, where the overlay would
+     * mostly fill up and fail: the quarters first there. Either order
+     * accepts the same faces (the bound may differ). */
+    const int large = depth == 0 && triangle_area(p) > OVERLAY_MAX_ORIGINALS * o->mean_area;
+    if (depth == 0 && !large && overlay_now(o, filter, p, f, accept, bound)) return 1;
+    if (depth < CERT_MAX_DEPTH) {
+        vec3d pieces[4][3];
+        split4(p, pieces);
+        double quarters = *bound;
+        int k = 0;
+        while (k < 4 && piece_a(o, filter, f, pieces[k], depth + 1, eps, accept, &quarters)) k++;
+        if (k == 4) {
+            *bound = quarters;
             return 1;
         }
     }
-    if (depth >= CERT_MAX_DEPTH) return 0;
-    vec3d pieces[4][3];
-    split4(p, pieces);
-    for (int k = 0; k < 4; ++k)
-        if (!piece_a(o, filter, f, pieces[k], depth + 1, eps, accept, bound)) return 0;
-    return 1;
+    return large && overlay_now(o, filter, p, f, accept, bound);
 }
 
 int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bound)
