@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "batch.h"
@@ -306,14 +307,18 @@ static int weld_and_simplify(scene *s, uint32_t m, int release_mesh_data, const 
 {
     const scene_mesh *mesh = &s->meshes[m];
     memset(r, 0, sizeof *r);
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
     int rc = weld_build(mesh, w, err);
     if (rc) return rc;
+    clock_gettime(CLOCK_MONOTONIC, &t1);
     weld_release_edge_opposite(w); /* nothing after the weld reads it */
     if (release_mesh_data) scene_release_mesh_data(s, m);
     int64_t *materials = malloc(((size_t)mesh->primitive_count + 1) * sizeof *materials);
     if (!materials) rc = lp_fail(err, LP_INVALID, "out of memory");
     for (uint32_t p = 0; materials && p < mesh->primitive_count; ++p) materials[p] = mesh->primitives[p].material;
     if (!rc) rc = simplify_mesh(w, materials, opt, r, err);
+    if (!rc) r->seconds_weld = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
     free(materials);
     if (rc) weld_free(w);
     return rc;
@@ -498,9 +503,10 @@ static int cmd_simplify(const cli *c)
             }
             fprintf(j, "%s{\"mesh\":%u,\"name\":", first ? "" : ",", m);
             json_string(j, mesh->name);
-            fprintf(j, ",\"diagonal\":%.17g,\"triangles\":%u,\"weld\":{\"vertices\":%u,\"locked\":%u,\"degenerate_dropped\":%u},\"levels\":[",
+            fprintf(j, ",\"diagonal\":%.17g,\"triangles\":%u,\"weld\":{\"vertices\":%u,\"locked\":%u,\"degenerate_dropped\":%u},"
+                       "\"seconds_weld\":%.6f,\"seconds_setup\":%.6f,\"levels\":[",
                     r.diagonal, w.triangle_count, w.vertex_count, w.stats.vertices_by_kind[WELD_LOCKED],
-                    w.stats.degenerate_triangles);
+                    w.stats.degenerate_triangles, r.seconds_weld, r.seconds_setup);
             for (uint32_t k = 0; k < r.level_count; ++k) {
                 const simplify_level *l = &r.levels[k];
                 fprintf(j, "%s{\"level\":%u,\"fraction\":%.17g,\"eps\":%.17g,\"bound\":%.17g,\"triangles\":%u,\"seconds\":%.6f,",

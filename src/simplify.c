@@ -1628,6 +1628,7 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
     memset(out, 0, sizeof *out);
     if (options->level_count > SIMPLIFY_MAX_LEVELS)
         return lp_fail(err, LP_USAGE, "at most %d levels", SIMPLIFY_MAX_LEVELS);
+    const double setup_start = now_seconds();
     sim *s = calloc(1, sizeof *s);
     ranked *ranks = NULL;
     candidate *batch = NULL;
@@ -1653,6 +1654,7 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
     for (int k = 0; k < 3 && w->vertex_count; ++k) d2 += (hi[k] - lo[k]) * (hi[k] - lo[k]);
     out->diagonal = sqrt(d2);
     out->level_count = options->level_count;
+    out->seconds_setup = now_seconds() - setup_start;
     for (uint32_t k = 0; k < options->level_count; ++k) {
         simplify_level *level = &out->levels[k];
         double t0 = now_seconds();

@@ -86,6 +86,8 @@ typedef struct simplify_level {
 
 typedef struct simplify_result {
     double diagonal;
+    double seconds_setup; /* before the first level: BVH, clusters, quadrics, lists */
+    double seconds_weld;  /* set by the caller that welded the mesh (0 otherwise) */
     uint32_t level_count;
     simplify_level levels[SIMPLIFY_MAX_LEVELS];
     /* per weld position vertex: the first level it is absent from (1-based),
