@@ -110,6 +110,7 @@ typedef struct candidate {
     uint32_t u, v;      /* v == NONE: rejected */
     int moved;          /* full-edge collapse: v moves to place */
     double place[3];
+    int thin;           /* star_is_thin of the accepted collapse (the commit re-tests crossings only then) */
     int reason;
     uint32_t thread;
     size_t u32_off, f64_off;
@@ -778,13 +779,15 @@ static void evaluate(const sim *s, scratch *sc, candidate *c)
                 c->reason = SIMPLIFY_REJECT_FLIP;
                 continue;
             }
-            if (star_is_thin(s, sc, cl) && star_crosses(s, sc, cl)) {
+            const int thin = star_is_thin(s, sc, cl);
+            if (thin && star_crosses(s, sc, cl)) {
                 if (sc->oom) return;
                 c->reason = SIMPLIFY_REJECT_INTERSECT;
                 continue;
             }
             if (certify_collapse(s, sc, c, cl)) {
                 c->v = e->x;
+                c->thin = thin;
                 c->moved = cl->moved;
                 memcpy(c->place, cl->place, sizeof c->place);
                 c->cost = e->cost;
@@ -905,8 +908,8 @@ static int commit(sim *s, const candidate *c)
     if (cl.moved && gather_faces(s, v, &sc->faces_v)) return sc->oom = 1, 0;
     if (gather_changed(s, sc, &cl)) return sc->oom = 1, 0;
     /* faces committed earlier in this batch were not there when the candidate
-     * was tested for crossings */
-    if (star_is_thin(s, sc, &cl) && crosses_batch(s, sc, &cl)) return 0;
+     * was tested for crossings (its star and the thin map are as they were) */
+    if (c->thin && crosses_batch(s, sc, &cl)) return 0;
     if (sc->oom) return 0;
     /* which of v's wedges replaces u's in each face: read from the faces on
      * edge (u, v), one per side (two for a seam) */
