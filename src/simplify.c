@@ -613,7 +613,7 @@ static uint32_t unit_faces(const sim *s, uint32_t unit, uint32_t out[REGISTRY_SL
 
 /* Certifies the collapse cl (sc->changed gathered). On success appends its
  * records to the thread's arena: per re-certified original (t, n, used[4]) +
- * bound, then changed face ids + bounds. Returns 1 accepted, 0 rejected
+ * bound, then changed face ids + (bound, box lo xyz, box hi xyz). Returns 1 accepted, 0 rejected
  * (reason set). */
 static int certify_collapse(const sim *s, scratch *sc, candidate *c, const collapse *cl)
 {
@@ -715,6 +715,8 @@ static int certify_collapse(const sim *s, scratch *sc, candidate *c, const colla
             return 0;
         }
         if (u32_push(&sc->out_u32, f) || f64_push(&sc->out_f64, bound)) return sc->oom = 1, 0;
+        for (int a = 0; a < 6; ++a) /* its box, for the commit's grid entry */
+            if (f64_push(&sc->out_f64, a < 3 ? t.lo[a] : t.hi[a - 3])) return sc->oom = 1, 0;
         changed++;
     }
     c->u32_off = u32_start;
@@ -899,7 +901,7 @@ static int commit(sim *s, const candidate *c)
     const uint32_t *regs = res->out_u32.data + c->u32_off;
     const double *reg_bounds = res->out_f64.data + c->f64_off;
     const uint32_t *changed = regs + (size_t)c->recheck_count * (2 + CERT_MAX_WITNESSES);
-    const double *changed_bounds = reg_bounds + c->recheck_count;
+    const double *changed_f64 = reg_bounds + c->recheck_count; /* per changed face: bound, lo xyz, hi xyz */
     for (uint32_t i = 0; i < c->recheck_count; ++i)
         if (s->unit_stamp[regs[i * (2 + CERT_MAX_WITNESSES)]] == s->batch_stamp) return 0;
 
@@ -946,6 +948,7 @@ static int commit(sim *s, const candidate *c)
     /* the faces that moved: u's, and v's when v moved (the faces on the edge
      * are in both lists, dead by now) */
     double star_box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    uint32_t next_changed = 0; /* the alive faces come in the order certify_collapse met them */
     for (int side = 0; side < (cl.moved ? 2 : 1); ++side) {
         const u32vec *star = side ? &sc->faces_v : &sc->faces_u;
         for (size_t i = 0; i < star->size; ++i) {
@@ -955,7 +958,22 @@ static int commit(sim *s, const candidate *c)
                 continue;
             }
             cert_tri t;
-            face_after(s, f, NULL, &t);
+            if (next_changed < c->changed_count && changed[next_changed] == f) {
+                memcpy(t.lo, changed_f64 + 7 * (size_t)next_changed + 1, sizeof t.lo);
+                memcpy(t.hi, changed_f64 + 7 * (size_t)next_changed + 4, sizeof t.hi);
+                next_changed++;
+            } else {
+                face_after(s, f, NULL, &t);
+            }
+            if (s->verify) { /* the certified geometry is the committed one */
+                cert_tri now;
+                face_after(s, f, NULL, &now);
+                if (memcmp(now.lo, t.lo, sizeof t.lo) || memcmp(now.hi, t.hi, sizeof t.hi)) {
+                    s->verify_failed = 1;
+                    snprintf(s->verify_msg, sizeof s->verify_msg, "collapse %u -> %u: face %u is not where it was certified", u, v, f);
+                    return 0;
+                }
+            }
             if (facegrid_insert(&s->grid, f, t.lo, t.hi) != FACEGRID_OK) return sc->oom = 1, 0;
             s->face_commit_stamp[f] = s->batch_stamp;
             if (u32_push(&s->batch_faces, f)) return sc->oom = 1, 0;
@@ -968,7 +986,7 @@ static int commit(sim *s, const candidate *c)
     if (u32_push(&s->batch_star_end, (uint32_t)s->batch_faces.size)) return sc->oom = 1, 0;
     for (int a = 0; a < 6; ++a)
         if (f64_push(&s->batch_star_box, star_box[a])) return sc->oom = 1, 0;
-    for (uint32_t i = 0; i < c->changed_count; ++i) s->face_bound[changed[i]] = changed_bounds[i];
+    for (uint32_t i = 0; i < c->changed_count; ++i) s->face_bound[changed[i]] = changed_f64[7 * (size_t)i];
     for (uint32_t i = 0; i < c->recheck_count; ++i) {
         const uint32_t *r = regs + (size_t)i * (2 + CERT_MAX_WITNESSES);
         if (r[0] >= s->nf) { /* a cluster: whole again (one face) or split (no face) */
