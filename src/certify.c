@@ -132,9 +132,10 @@ static int build_clusters(cert_original *o)
     return 0;
 }
 
-/* Each cluster's distinct vertices: its triangles share most of their
- * corners (32 triangles have about 20 vertices, not 96), and the whole-cluster
- * test measures every vertex against a face. */
+/* Each cluster's distinct vertices: the whole-cluster test measures every
+ * vertex against a face, and its triangles share most of their corners (the
+ * 1.1M-triangle bunny: 49,102 clusters of 22.6 triangles, 19.4 distinct
+ * vertices each against 68 corners). */
 static int collect_cluster_vertices(cert_original *o, uint32_t vertex_count)
 {
     uint32_t *seen = malloc(((size_t)vertex_count + 1) * sizeof *seen);
@@ -263,17 +264,24 @@ static int witness_ok(void *context, uint32_t t)
            nt[0] * f->n[0] + nt[1] * f->n[1] + nt[2] * f->n[2] > 0.0;
 }
 
+/* 0 when p is farther than accept from tri (NaN too: never accepted), else 1
+ * with *worst2 raised to its squared distance. */
+static int point_within(const vec3d *p, const vec3d tri[3], double accept, double *worst2)
+{
+    const double d2 = geom_point_triangle_distance2(p, &tri[0], &tri[1], &tri[2], NULL);
+    if (!(d2 <= accept * accept)) return 0;
+    if (d2 > *worst2) *worst2 = d2;
+    return 1;
+}
+
 /* The largest corner distance of the piece to tri, or INFINITY as soon as
  * one corner is farther than accept (the callers accept only <= accept). */
 static double max_corner_distance(const vec3d piece[3], const vec3d tri[3], double accept)
 {
-    double worst = 0.0;
-    for (int k = 0; k < 3; ++k) {
-        double d2 = geom_point_triangle_distance2(&piece[k], &tri[0], &tri[1], &tri[2], NULL);
-        if (!(d2 <= accept * accept)) return INFINITY; /* NaN too: never accepted */
-        if (d2 > worst) worst = d2;
-    }
-    return sqrt(worst);
+    double worst2 = 0.0;
+    for (int k = 0; k < 3; ++k)
+        if (!point_within(&piece[k], tri, accept, &worst2)) return INFINITY;
+    return sqrt(worst2);
 }
 
 static void split4(const vec3d p[3], vec3d out[4][3])
@@ -687,8 +695,9 @@ int cert_cover_within(const cert_original *o, uint32_t t, const cert_tri *faces,
 
 /* ---- (b) for a whole cluster --------------------------------------------------- */
 
-static double cluster_within(const cert_original *o, const cert_cluster_info *c, const cert_tri *f, double accept)
+static double cluster_within(const cert_original *o, uint32_t cluster, const cert_tri *f, double accept)
 {
+    const cert_cluster_info *c = &o->clusters[cluster];
     if (f->degenerate || f->material != c->material || c->material == CERT_MIXED) return INFINITY;
     if (!(c->axis[0] * f->n[0] + c->axis[1] * f->n[1] + c->axis[2] * f->n[2] > c->cone_sin)) return INFINITY;
     const vec3d centre = {c->centre[0], c->centre[1], c->centre[2]};
@@ -699,13 +708,10 @@ static double cluster_within(const cert_original *o, const cert_cluster_info *c,
     const double d = sqrt(geom_point_triangle_distance2(&centre, &tri[0], &tri[1], &tri[2], NULL));
     if (d + c->radius <= accept) return d + c->radius;
     /* convexity: every triangle is within accept when its corners are */
-    const size_t c_index = (size_t)(c - o->clusters);
     double worst2 = 0.0;
-    for (uint32_t i = o->cluster_vertex_start[c_index]; i < o->cluster_vertex_start[c_index + 1]; ++i) {
+    for (uint32_t i = o->cluster_vertex_start[cluster]; i < o->cluster_vertex_start[cluster + 1]; ++i) {
         const vec3d x = vertex_of(o, o->cluster_vertices[i]);
-        const double d2 = geom_point_triangle_distance2(&x, &tri[0], &tri[1], &tri[2], NULL);
-        if (!(d2 <= accept * accept)) return INFINITY; /* NaN too: never accepted */
-        if (d2 > worst2) worst2 = d2;
+        if (!point_within(&x, tri, accept, &worst2)) return INFINITY;
     }
     return sqrt(worst2);
 }
@@ -713,11 +719,10 @@ static double cluster_within(const cert_original *o, const cert_cluster_info *c,
 int cert_cluster(const cert_original *o, uint32_t c, const cert_tri *faces, uint32_t count, double eps,
                  const uint32_t *first, uint32_t first_count, uint32_t *face, double *bound)
 {
-    const cert_cluster_info *info = &o->clusters[c];
     const double accept = eps * (1.0 - CERT_MARGIN);
     for (uint32_t i = 0; i < first_count + count; ++i) {
         const cert_tri *f = i < first_count ? &faces[first[i]] : &faces[i - first_count];
-        double m = cluster_within(o, info, f, accept);
+        double m = cluster_within(o, c, f, accept);
         if (m <= accept) {
             *face = f->id;
             *bound = m;
@@ -729,5 +734,5 @@ int cert_cluster(const cert_original *o, uint32_t c, const cert_tri *faces, uint
 
 int cert_cluster_within(const cert_original *o, uint32_t c, const cert_tri *f, double limit)
 {
-    return cluster_within(o, &o->clusters[c], f, limit) <= limit;
+    return cluster_within(o, c, f, limit) <= limit;
 }

@@ -613,8 +613,8 @@ static uint32_t unit_faces(const sim *s, uint32_t unit, uint32_t out[REGISTRY_SL
 
 /* Certifies the collapse cl (sc->changed gathered). On success appends its
  * records to the thread's arena: per re-certified original (t, n, used[4]) +
- * bound, then changed face ids + (bound, box lo xyz, box hi xyz). Returns 1 accepted, 0 rejected
- * (reason set). */
+ * bound, then per changed face its id + (bound, box lo xyz, box hi xyz).
+ * Returns 1 accepted, 0 rejected (reason set). */
 static int certify_collapse(const sim *s, scratch *sc, candidate *c, const collapse *cl)
 {
     const double eps = s->eps;
@@ -957,14 +957,15 @@ static int commit(sim *s, const candidate *c)
                 facegrid_remove(&s->grid, f);
                 continue;
             }
-            cert_tri t;
-            if (next_changed < c->changed_count && changed[next_changed] == f) {
-                memcpy(t.lo, changed_f64 + 7 * (size_t)next_changed + 1, sizeof t.lo);
-                memcpy(t.hi, changed_f64 + 7 * (size_t)next_changed + 4, sizeof t.hi);
-                next_changed++;
-            } else {
-                face_after(s, f, NULL, &t);
+            if (next_changed == c->changed_count || changed[next_changed] != f) { /* never certified: a bug */
+                s->verify_failed = 1;
+                snprintf(s->verify_msg, sizeof s->verify_msg, "collapse %u -> %u: face %u was not certified", u, v, f);
+                return 0;
             }
+            cert_tri t;
+            memcpy(t.lo, changed_f64 + 7 * (size_t)next_changed + 1, sizeof t.lo);
+            memcpy(t.hi, changed_f64 + 7 * (size_t)next_changed + 4, sizeof t.hi);
+            next_changed++;
             if (s->verify) { /* the certified geometry is the committed one */
                 cert_tri now;
                 face_after(s, f, NULL, &now);
