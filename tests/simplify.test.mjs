@@ -202,6 +202,9 @@ function meshListProblems(expected, report) {
     if (n > 1) p.push(`mesh ${k} appears ${n} times in simplify.json (each distinct mesh once)`);
     if (!expected.includes(k)) p.push(`simplify.json lists mesh ${k}, which the default scene does not use with triangles`);
   }
+  for (const m of report.meshes)
+    for (const key of ['seconds_weld', 'seconds_setup'])
+      if (!(Number.isFinite(m[key]) && m[key] >= 0)) p.push(`mesh ${m.mesh}: ${key} is ${JSON.stringify(m[key])}, not a time in seconds`);
   return p;
 }
 
@@ -665,14 +668,17 @@ test('self-test: the checks pass a correct hand-made output and catch planted de
     assert.match(originalCheck(doc, inFile, K, missing.obj, missing.f).problems.join(), /1 input triangles not in level 0/);
   });
   // the mesh list check
-  await t.test('mesh list: a missing or duplicated mesh is reported', () => {
+  await t.test('mesh list: a missing or duplicated mesh, or a missing time, is reported', () => {
     const expected = sceneTriangleMeshes(path.join(repoRoot, 'assets', 'default_scene.glb'));
     assert.deepEqual(expected, [0, 1, 2, 3]);
-    const entries = expected.map((k) => ({ mesh: k }));
+    const entry = (k) => ({ mesh: k, seconds_weld: 0.01, seconds_setup: 0 });
+    const entries = expected.map(entry);
     assert.deepEqual(meshListProblems(expected, { meshes: entries }), []);
     assert.match(meshListProblems(expected, { meshes: entries.slice(0, 3) }).join(), /mesh 3 .* missing/);
-    assert.match(meshListProblems(expected, { meshes: [...entries, { mesh: 0 }] }).join(), /mesh 0 appears 2 times/);
-    assert.match(meshListProblems(expected, { meshes: [...entries, { mesh: 7 }] }).join(), /lists mesh 7/);
+    assert.match(meshListProblems(expected, { meshes: [...entries, entry(0)] }).join(), /mesh 0 appears 2 times/);
+    assert.match(meshListProblems(expected, { meshes: [...entries, entry(7)] }).join(), /lists mesh 7/);
+    assert.match(meshListProblems(expected, { meshes: [...entries.slice(1), { mesh: 0, seconds_weld: 0.01 }] }).join(),
+      /mesh 0: seconds_setup is undefined/);
   });
 });
 
