@@ -1606,6 +1606,36 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
 
 /* ---- levels -------------------------------------------------------------------- */
 
+typedef struct thin_job {
+    sim *s;
+    int rc;
+} thin_job;
+
+static void *build_thin_map(void *p)
+{
+    thin_job *job = p;
+    sim *s = job->s;
+    job->rc = thin_map_build(&s->thin, 2.0 * s->eps, s->w->positions, s->w->vertex_count, s->w->triangle_vertices,
+                             s->nf, s->face_material, s->special);
+    return NULL;
+}
+
+/* The face grid and (unless strict) the thin map for a level's eps. They
+ * share no state, so with a second thread the map is built beside the grid
+ * (both read the whole original at the first level). Returns 0, or -1 when
+ * memory runs out. */
+static int level_structures(sim *s)
+{
+    thin_map_free(&s->thin);
+    thin_job job = {s, 0};
+    pthread_t thread;
+    const int beside = !s->strict && s->thread_count > 1 && pthread_create(&thread, NULL, build_thin_map, &job) == 0;
+    if (!s->strict && !beside) build_thin_map(&job);
+    const int grid_rc = grid_rebuild(s);
+    if (beside) pthread_join(thread, NULL);
+    return grid_rc || job.rc ? -1 : 0;
+}
+
 static int snapshot_level(sim *s, simplify_level *level)
 {
     uint32_t alive = 0;
@@ -1694,10 +1724,7 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
         level->eps = s->eps;
         memset(s->reject_stamp, 0xff, (size_t)w->vertex_count * sizeof *s->reject_stamp);
         memset(s->cluster_dirty, 1, s->orig.cluster_count); /* a larger eps may hold more of them whole */
-        thin_map_free(&s->thin);
-        if (grid_rebuild(s) ||
-            (!s->strict && thin_map_build(&s->thin, 2.0 * s->eps, w->positions, w->vertex_count, w->triangle_vertices,
-                                          s->nf, s->face_material, s->special))) {
+        if (level_structures(s)) {
             rc = lp_fail(err, LP_INVALID, "out of memory");
             goto done;
         }
