@@ -38,6 +38,7 @@
 #define MAX_CANDIDATE_FACES 384
 #define MAX_PASSES 400
 #define MAX_THREADS 64
+#define CHANGED_RECORD 7 /* doubles per changed face in a thread's arena: bound, box lo xyz, box hi xyz */
 
 /* ---- growable scratch arrays (per thread; grown, never shrunk) ------------- */
 
@@ -158,8 +159,7 @@ typedef struct sim {
      * faces have halved, so cells follow the faces' growing size */
     facegrid grid;
     uint32_t grid_built_with;
-    uint32_t faces_alive;        /* count of face_alive */
-    uint32_t *face_commit_stamp; /* batch in which a commit last changed the face */
+    uint32_t faces_alive; /* count of face_alive */
     /* the stars committed in the current batch: per star its alive faces
      * (batch_faces[batch_star_end[i - 1] .. batch_star_end[i] - 1]) and their
      * box (batch_star_box[6 i ..], lo then hi), for the commit's re-test of
@@ -477,14 +477,12 @@ typedef struct crossing_query {
     const cert_tri *faces; /* the new faces */
     size_t count;
     const collapse *cl;
-    uint32_t only_stamp;  /* 0: every face; else only faces committed in that batch */
 } crossing_query;
 
 static int crosses(void *context, uint32_t g)
 {
     const crossing_query *q = context;
     const sim *s = q->s;
-    if (q->only_stamp && s->face_commit_stamp[g] != q->only_stamp) return 0; /* cheapest first */
     if (!s->face_alive[g] || face_has(s, g, q->cl->u)) return 0; /* the star itself is tested apart */
     if (q->cl->moved && face_has(s, g, q->cl->v)) return 0;
     double other[3][3], lo[3], hi[3];
@@ -522,15 +520,15 @@ static long new_star(const sim *s, scratch *sc, const collapse *cl, double lo[3]
 /* The commit's re-test: 1 when a face of the new star would cross a face
  * that an earlier commit of this batch changed (those were not there when the
  * candidate was tested). Only the stars committed in this batch are visited,
- * not the grid: the same faces (stamped with this batch), far fewer
- * visits. */
+ * not the grid: their lists hold exactly those faces (a face they list that
+ * died since is skipped by crosses). */
 static int crosses_batch(const sim *s, scratch *sc, const collapse *cl)
 {
     double lo[3], hi[3];
     long n = new_star(s, sc, cl, lo, hi);
     if (n < 0) return sc->oom = 1, 1;
     if (n == 0) return 0;
-    crossing_query q = {s, sc->tris, (size_t)n, cl, s->batch_stamp};
+    crossing_query q = {s, sc->tris, (size_t)n, cl};
     uint32_t begin = 0;
     for (size_t i = 0; i < s->batch_star_end.size; ++i) {
         const double *box = s->batch_star_box.data + 6 * i;
@@ -557,7 +555,7 @@ static int star_crosses(const sim *s, scratch *sc, const collapse *cl)
         for (long j = i + 1; j < n; ++j)
             if (intersect_triangles((const double(*)[3])sc->tris[i].p, (const double(*)[3])sc->tris[j].p)) return 1;
     if (!n) return 0;
-    crossing_query q = {s, sc->tris, (size_t)n, cl, 0};
+    crossing_query q = {s, sc->tris, (size_t)n, cl};
     return facegrid_query(&s->grid, lo, hi, crosses, &q);
 }
 
@@ -901,7 +899,7 @@ static int commit(sim *s, const candidate *c)
     const uint32_t *regs = res->out_u32.data + c->u32_off;
     const double *reg_bounds = res->out_f64.data + c->f64_off;
     const uint32_t *changed = regs + (size_t)c->recheck_count * (2 + CERT_MAX_WITNESSES);
-    const double *changed_f64 = reg_bounds + c->recheck_count; /* per changed face: bound, lo xyz, hi xyz */
+    const double *changed_f64 = reg_bounds + c->recheck_count;
     for (uint32_t i = 0; i < c->recheck_count; ++i)
         if (s->unit_stamp[regs[i * (2 + CERT_MAX_WITNESSES)]] == s->batch_stamp) return 0;
 
@@ -963,8 +961,9 @@ static int commit(sim *s, const candidate *c)
                 return 0;
             }
             cert_tri t;
-            memcpy(t.lo, changed_f64 + 7 * (size_t)next_changed + 1, sizeof t.lo);
-            memcpy(t.hi, changed_f64 + 7 * (size_t)next_changed + 4, sizeof t.hi);
+            const double *record = changed_f64 + CHANGED_RECORD * (size_t)next_changed;
+            memcpy(t.lo, record + 1, sizeof t.lo);
+            memcpy(t.hi, record + 4, sizeof t.hi);
             next_changed++;
             if (s->verify) { /* the certified geometry is the committed one */
                 cert_tri now;
@@ -976,7 +975,6 @@ static int commit(sim *s, const candidate *c)
                 }
             }
             if (facegrid_insert(&s->grid, f, t.lo, t.hi) != FACEGRID_OK) return sc->oom = 1, 0;
-            s->face_commit_stamp[f] = s->batch_stamp;
             if (u32_push(&s->batch_faces, f)) return sc->oom = 1, 0;
             for (int a = 0; a < 3; ++a) {
                 star_box[a] = fmin(star_box[a], t.lo[a]);
@@ -987,7 +985,7 @@ static int commit(sim *s, const candidate *c)
     if (u32_push(&s->batch_star_end, (uint32_t)s->batch_faces.size)) return sc->oom = 1, 0;
     for (int a = 0; a < 6; ++a)
         if (f64_push(&s->batch_star_box, star_box[a])) return sc->oom = 1, 0;
-    for (uint32_t i = 0; i < c->changed_count; ++i) s->face_bound[changed[i]] = changed_f64[7 * (size_t)i];
+    for (uint32_t i = 0; i < c->changed_count; ++i) s->face_bound[changed[i]] = changed_f64[CHANGED_RECORD * (size_t)i];
     for (uint32_t i = 0; i < c->recheck_count; ++i) {
         const uint32_t *r = regs + (size_t)i * (2 + CERT_MAX_WITNESSES);
         if (r[0] >= s->nf) { /* a cluster: whole again (one face) or split (no face) */
@@ -1486,7 +1484,6 @@ static void sim_free(sim *s)
     free(s->vertex_stamp);
     free(s->vertex_read_stamp);
     free(s->quadrics);
-    free(s->face_commit_stamp);
     facegrid_free(&s->grid);
     thin_map_free(&s->thin);
     free(s->special);
@@ -1554,14 +1551,13 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     s->vertex_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_stamp);
     s->vertex_read_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_read_stamp);
     s->quadrics = calloc((size_t)nv + 1, sizeof *s->quadrics);
-    s->face_commit_stamp = calloc((size_t)nf + 1, sizeof *s->face_commit_stamp);
     s->special = malloc((size_t)nv + 1);
     if (s->special)
         for (uint32_t v = 0; v < nv; ++v)
             s->special[v] = w->vertex_kind[v] == WELD_BORDER || w->vertex_kind[v] == WELD_LOCKED;
     if (!s->special || !s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next || !s->face_alive ||
         !s->face_bound || !s->vertex_first || !s->vertex_alive || !s->movable || !s->change_stamp ||
-        !s->reject_stamp || !s->vertex_stamp || !s->vertex_read_stamp || !s->quadrics || !s->face_commit_stamp)
+        !s->reject_stamp || !s->vertex_stamp || !s->vertex_read_stamp || !s->quadrics)
         return -1;
     for (uint32_t t = 0; t < s->thread_count; ++t)
         if (scratch_init(&s->scratch[t], nv)) return -1;
