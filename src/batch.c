@@ -41,6 +41,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "clock.h"
 #include "jsonr.h"
 #include "jsonw.h"
 #include "output.h"
@@ -117,13 +118,6 @@ typedef struct batch {
     struct stat output_stat;
 } batch;
 
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static char *join_path(const char *dir, const char *name)
 {
     size_t a = strlen(dir), b = strlen(name);
@@ -180,7 +174,7 @@ static void show_progress(batch *b, const char *current)
     for (size_t i = 0; i < b->job_count; ++i)
         done += b->jobs[i].state == JOB_CACHED || b->jobs[i].state == JOB_BUILT || b->jobs[i].state == JOB_FAILED;
     char eta[32] = "--:--";
-    double elapsed = now_seconds() - b->start;
+    double elapsed = lp_seconds() - b->start;
     if (b->finished_builds > 0) {
         double left = elapsed / (double)b->finished_builds * (double)(b->to_build - b->finished_builds);
         long s = (long)(left + 0.5);
@@ -581,7 +575,7 @@ static int start_job(batch *b, job *j)
     fcntl(err_pipe[0], F_SETFL, O_NONBLOCK);
     j->out.fd = out_pipe[0];
     j->err.fd = err_pipe[0];
-    j->started = now_seconds();
+    j->started = lp_seconds();
     j->state = JOB_RUNNING;
     return 0;
 }
@@ -689,7 +683,7 @@ static void note_error(job *j, const char *fallback)
 
 static void finish_job(batch *b, job *j, int status)
 {
-    j->now.seconds = now_seconds() - j->started;
+    j->now.seconds = lp_seconds() - j->started;
     b->finished_builds++;
     char message[700];
     message[0] = 0;
@@ -1002,7 +996,7 @@ int batch_run(const batch_options *options)
     batch b;
     memset(&b, 0, sizeof b);
     b.opt = options;
-    b.start = now_seconds();
+    b.start = lp_seconds();
     b.source_dir = strip_slashes(options->source_dir);
     b.output_dir = strip_slashes(options->output_dir);
     lp_error err = {0, ""};
@@ -1030,7 +1024,7 @@ int batch_run(const batch_options *options)
         run_jobs(&b);
         unlink(b.config_path);
     }
-    double wall = now_seconds() - b.start;
+    double wall = lp_seconds() - b.start;
     totals t = count_totals(&b);
     rc = write_manifest(&b, &err);
     if (rc) fprintf(stderr, "lodpipe: %s\n", err.msg);

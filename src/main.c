@@ -9,10 +9,10 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include <time.h>
 #include <unistd.h>
 
 #include "batch.h"
+#include "clock.h"
 #include "config.h"
 #include "depfile.h"
 #include "dracoout.h"
@@ -307,18 +307,17 @@ static int weld_and_simplify(scene *s, uint32_t m, int release_mesh_data, const 
 {
     const scene_mesh *mesh = &s->meshes[m];
     memset(r, 0, sizeof *r);
-    struct timespec t0, t1;
-    clock_gettime(CLOCK_MONOTONIC, &t0);
+    const double weld_start = lp_seconds();
     int rc = weld_build(mesh, w, err);
     if (rc) return rc;
-    clock_gettime(CLOCK_MONOTONIC, &t1);
+    const double weld_seconds = lp_seconds() - weld_start;
     weld_release_edge_opposite(w); /* nothing after the weld reads it */
     if (release_mesh_data) scene_release_mesh_data(s, m);
     int64_t *materials = malloc(((size_t)mesh->primitive_count + 1) * sizeof *materials);
     if (!materials) rc = lp_fail(err, LP_INVALID, "out of memory");
     for (uint32_t p = 0; materials && p < mesh->primitive_count; ++p) materials[p] = mesh->primitives[p].material;
     if (!rc) rc = simplify_mesh(w, materials, opt, r, err);
-    if (!rc) r->seconds_weld = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+    if (!rc) r->seconds_weld = weld_seconds;
     free(materials);
     if (rc) weld_free(w);
     return rc;

@@ -20,10 +20,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 #include <unistd.h>
 
 #include "certify.h"
+#include "clock.h"
 #include "facegrid.h"
 #include "geom.h"
 #include "intersect.h"
@@ -184,13 +184,6 @@ typedef struct sim {
     char verify_msg[256];
     int verify_failed;
 } sim;
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 static void vertex_position(const sim *s, uint32_t v, double out[3])
 {
@@ -1357,18 +1350,18 @@ static int grid_rebuild(sim *s)
 static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
 {
     simplify_stats *st = s->stats;
-    double t0 = now_seconds();
+    double t0 = lp_seconds();
     if (merge_clusters(s)) return -1;
     size_t n = collect_candidates(s, ranks);
-    st->seconds_select += now_seconds() - t0;
+    st->seconds_select += lp_seconds() - t0;
     long commits = 0;
     size_t count = 0;
     *waiting = 0;
     if (++s->batch_stamp == 0) return -1;
     for (size_t i = 0; i < n; ++i) {
-        double t1 = now_seconds();
+        double t1 = lp_seconds();
         int reserved = reserve_footprint(s, ranks[i].u);
-        st->seconds_select += now_seconds() - t1;
+        st->seconds_select += lp_seconds() - t1;
         if (s->serial.oom) return -1;
         if (!reserved) {
             (*waiting)++;
@@ -1395,9 +1388,9 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
 static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
 {
     simplify_stats *st = s->stats;
-    double t2 = now_seconds();
+    double t2 = lp_seconds();
     evaluate_batch(s, batch, count);
-    double t3 = now_seconds();
+    double t3 = lp_seconds();
     st->seconds_certify += t3 - t2;
     st->batches++;
     for (uint32_t t = 0; t < s->thread_count; ++t)
@@ -1426,7 +1419,7 @@ static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
         st->commits++;
         (*commits)++;
     }
-    st->seconds_commit += now_seconds() - t3;
+    st->seconds_commit += lp_seconds() - t3;
 }
 
 /* ---- set-up -------------------------------------------------------------------- */
@@ -1676,7 +1669,7 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
     memset(out, 0, sizeof *out);
     if (options->level_count > SIMPLIFY_MAX_LEVELS)
         return lp_fail(err, LP_USAGE, "at most %d levels", SIMPLIFY_MAX_LEVELS);
-    const double setup_start = now_seconds();
+    const double setup_start = lp_seconds();
     sim *s = calloc(1, sizeof *s);
     ranked *ranks = NULL;
     candidate *batch = NULL;
@@ -1702,10 +1695,10 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
     for (int k = 0; k < 3 && w->vertex_count; ++k) d2 += (hi[k] - lo[k]) * (hi[k] - lo[k]);
     out->diagonal = sqrt(d2);
     out->level_count = options->level_count;
-    out->seconds_setup = now_seconds() - setup_start;
+    out->seconds_setup = lp_seconds() - setup_start;
     for (uint32_t k = 0; k < options->level_count; ++k) {
         simplify_level *level = &out->levels[k];
-        double t0 = now_seconds();
+        double t0 = lp_seconds();
         s->level = k;
         /* placement waits until half-edge collapses alone have converged:
          * then it can only remove more from this level, and the vertices
@@ -1749,7 +1742,7 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
             rc = lp_fail(err, LP_INVALID, "out of memory");
             goto done;
         }
-        level->stats.seconds = now_seconds() - t0;
+        level->stats.seconds = lp_seconds() - t0;
     }
 done:
     if (s) {
