@@ -885,9 +885,24 @@ static void test_cluster_layout(void)
         CHECK(ci->first == next && ci->count >= 1 && ci->count <= CERT_CLUSTER_MAX, "cluster %u: run %u + %u", c,
               ci->first, ci->count);
         next = ci->first + ci->count;
+        /* its vertex list: each corner of its triangles once, nothing else */
+        const uint32_t *vl = o->cluster_vertices + o->cluster_vertex_start[c];
+        const uint32_t vn = o->cluster_vertex_start[c + 1] - o->cluster_vertex_start[c];
+        for (uint32_t i = 0; i < vn; ++i) {
+            int corner = 0;
+            for (uint32_t j = 0; j < ci->count && !corner; ++j)
+                for (int k = 0; k < 3; ++k) corner |= m.tri[3 * (size_t)o->tree.triangle_order[ci->first + j] + k] == vl[i];
+            CHECK(corner, "cluster %u lists vertex %u, no corner of its triangles", c, vl[i]);
+            for (uint32_t j = 0; j < i; ++j) CHECK(vl[j] != vl[i], "cluster %u lists vertex %u twice", c, vl[i]);
+        }
         for (uint32_t i = 0; i < ci->count; ++i) {
             uint32_t t = o->tree.triangle_order[ci->first + i];
             CHECK(o->cluster_of[t] == c, "triangle %u in cluster %u says %u", t, c, o->cluster_of[t]);
+            for (int k = 0; k < 3; ++k) {
+                int listed = 0;
+                for (uint32_t j = 0; j < vn; ++j) listed |= vl[j] == m.tri[3 * (size_t)t + k];
+                CHECK(listed, "cluster %u: a corner of triangle %u is not in its vertex list", c, t);
+            }
             vec3d p[3];
             om_triangle(&m, t, p);
             for (int k = 0; k < 3; ++k)
