@@ -43,8 +43,8 @@ static void describe_cluster(const cert_original *o, cert_cluster_info *c)
         for (int k = 0; k < 3; ++k)
             for (int a = 0; a < 3; ++a) {
                 double x = o->positions[3 * (size_t)o->triangles[3 * (size_t)t + k] + a];
-                lo[a] = fmin(lo[a], x);
-                hi[a] = fmax(hi[a], x);
+                lo[a] = geom_fmin(lo[a], x);
+                hi[a] = geom_fmax(hi[a], x);
             }
         if (o->degenerate[t]) continue; /* a segment needs no agreeing normal (certify.h) */
         real = 1;
@@ -57,7 +57,7 @@ static void describe_cluster(const cert_original *o, cert_cluster_info *c)
             const float *x = o->positions + 3 * (size_t)o->triangles[3 * (size_t)order[i] + k];
             double d2 = 0.0;
             for (int a = 0; a < 3; ++a) d2 += (x[a] - c->centre[a]) * (x[a] - c->centre[a]);
-            r2 = fmax(r2, d2);
+            r2 = geom_fmax(r2, d2);
         }
     c->radius = sqrt(r2) * (1.0 + 1e-12);
     const double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
@@ -73,12 +73,12 @@ static void describe_cluster(const cert_original *o, cert_cluster_info *c)
             const uint32_t t = order[i];
             if (o->degenerate[t]) continue;
             const double *n = o->normals + 3 * (size_t)t;
-            m = fmin(m, n[0] * c->axis[0] + n[1] * c->axis[1] + n[2] * c->axis[2]);
+            m = geom_fmin(m, n[0] * c->axis[0] + n[1] * c->axis[1] + n[2] * c->axis[2]);
         }
         /* n . axis >= m = cos(theta): a face normal g agrees with all of them
          * when angle(axis, g) < 90 degrees - theta, i.e. axis . g > sin(theta);
          * the slack inside the root covers the cancellation in 1 - m^2 */
-        if (m > 1e-6) c->cone_sin = sqrt(fmax(0.0, 1.0 - m * m) + 1e-14) + 1e-9;
+        if (m > 1e-6) c->cone_sin = sqrt(geom_fmax(0.0, 1.0 - m * m) + 1e-14) + 1e-9;
     }
 }
 
@@ -229,8 +229,8 @@ void cert_face_normal(cert_tri *f)
     f->n[1] = n.y;
     f->n[2] = n.z;
     for (int k = 0; k < 3; ++k) {
-        f->lo[k] = fmin(f->p[0][k], fmin(f->p[1][k], f->p[2][k]));
-        f->hi[k] = fmax(f->p[0][k], fmax(f->p[1][k], f->p[2][k]));
+        f->lo[k] = geom_fmin(f->p[0][k], geom_fmin(f->p[1][k], f->p[2][k]));
+        f->hi[k] = geom_fmax(f->p[0][k], geom_fmax(f->p[1][k], f->p[2][k]));
     }
 }
 

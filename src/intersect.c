@@ -31,6 +31,7 @@
  * corners of one triangle that are not shared strictly on one side of the
  * other's plane (then the triangle meets that plane only inside H). */
 #include "intersect.h"
+#include "geom.h"
 
 #include <math.h>
 
@@ -102,9 +103,9 @@ static int separated_in_projection(const double *p, const double *q, const doubl
     /* boxes in the plane */
     for (int axis = 0; axis < 2; axis++) {
         int c = axis ? j : i;
-        double slo = fmin(p[c], q[c]), shi = fmax(p[c], q[c]);
-        double tlo = fmin(t[0][c], fmin(t[1][c], t[2][c]));
-        double thi = fmax(t[0][c], fmax(t[1][c], t[2][c]));
+        double slo = geom_fmin(p[c], q[c]), shi = geom_fmax(p[c], q[c]);
+        double tlo = geom_fmin(t[0][c], geom_fmin(t[1][c], t[2][c]));
+        double thi = geom_fmax(t[0][c], geom_fmax(t[1][c], t[2][c]));
         if (shi < tlo || thi < slo) return 1;
     }
 
@@ -129,9 +130,9 @@ static int separated_in_projection(const double *p, const double *q, const doubl
 static int segment_meets_triangle(const double *p, const double *q, const double t[3][3])
 {
     for (int c = 0; c < 3; c++) {
-        double slo = fmin(p[c], q[c]), shi = fmax(p[c], q[c]);
-        double tlo = fmin(t[0][c], fmin(t[1][c], t[2][c]));
-        double thi = fmax(t[0][c], fmax(t[1][c], t[2][c]));
+        double slo = geom_fmin(p[c], q[c]), shi = geom_fmax(p[c], q[c]);
+        double tlo = geom_fmin(t[0][c], geom_fmin(t[1][c], t[2][c]));
+        double thi = geom_fmax(t[0][c], geom_fmax(t[1][c], t[2][c]));
         if (shi < tlo || thi < slo) return 0;
     }
 
@@ -231,10 +232,10 @@ int intersect_triangles(const double a[3][3], const double b[3][3])
             if (!isfinite(a[i][c]) || !isfinite(b[i][c])) return 1;
 
     for (int c = 0; c < 3; c++) {
-        double alo = fmin(a[0][c], fmin(a[1][c], a[2][c]));
-        double ahi = fmax(a[0][c], fmax(a[1][c], a[2][c]));
-        double blo = fmin(b[0][c], fmin(b[1][c], b[2][c]));
-        double bhi = fmax(b[0][c], fmax(b[1][c], b[2][c]));
+        double alo = geom_fmin(a[0][c], geom_fmin(a[1][c], a[2][c]));
+        double ahi = geom_fmax(a[0][c], geom_fmax(a[1][c], a[2][c]));
+        double blo = geom_fmin(b[0][c], geom_fmin(b[1][c], b[2][c]));
+        double bhi = geom_fmax(b[0][c], geom_fmax(b[1][c], b[2][c]));
         if (ahi < blo || bhi < alo) return 0;
     }
 

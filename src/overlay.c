@@ -20,8 +20,8 @@ int overlay_subject_init(overlay_subject *s, const vec3d p[3])
     double reach = 0.0, extent = geom_max_abs_component(s->origin);
     for (int k = 0; k < 3; ++k) {
         s->inner[k] = geom_add_scaled(s->centroid, geom_sub(s->p[k], s->centroid), 1.0 - OVERLAY_SHRINK);
-        reach = fmax(reach, geom_distance(s->p[k], s->centroid));
-        extent = fmax(extent, geom_max_abs_component(s->p[k]));
+        reach = geom_fmax(reach, geom_distance(s->p[k], s->centroid));
+        extent = geom_fmax(extent, geom_max_abs_component(s->p[k]));
     }
     /* every point of S is within OVERLAY_SHRINK * reach of S'; the rest is
      * rounding of the relative coordinates and of the clipped corners */
@@ -71,7 +71,7 @@ overlay_piece_result overlay_piece(const overlay_subject *s, const vec3d w[3], d
     double extent = 0.0;
     for (int k = 0; k < 3 && count >= 3; ++k) {
         vec3d a = wr[k], b = wr[(k + 1) % 3];
-        extent = fmax(extent, geom_max_abs_component(a));
+        extent = geom_fmax(extent, geom_max_abs_component(a));
         count = clip(buffer[k & 1], count, a, geom_cross(s->n, geom_sub(b, a)), buffer[(k + 1) & 1]);
     }
     if (count < 3) return OVERLAY_EMPTY;
@@ -107,8 +107,8 @@ int overlay_edge_enters(const overlay_subject *s, vec3d a, vec3d b)
         double da = geom_dot(m, geom_sub(a, q)), db = geom_dot(m, geom_sub(b, q));
         if (da != da || db != db) return 1; /* NaN: say yes, the caller then demands more */
         if (!(da > 0.0) && !(db > 0.0)) return 0;
-        if (da < 0.0) lo = fmax(lo, da / (da - db));
-        else if (db < 0.0) hi = fmin(hi, da / (da - db));
+        if (da < 0.0) lo = geom_fmax(lo, da / (da - db));
+        else if (db < 0.0) hi = geom_fmin(hi, da / (da - db));
     }
     return lo < hi;
 }

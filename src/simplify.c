@@ -481,8 +481,8 @@ static int crosses(void *context, uint32_t g)
     double other[3][3], lo[3], hi[3];
     for (int k = 0; k < 3; ++k) vertex_position(s, s->corner_vertex[3 * g + k], other[k]);
     for (int a = 0; a < 3; ++a) {
-        lo[a] = fmin(other[0][a], fmin(other[1][a], other[2][a]));
-        hi[a] = fmax(other[0][a], fmax(other[1][a], other[2][a]));
+        lo[a] = geom_fmin(other[0][a], geom_fmin(other[1][a], other[2][a]));
+        hi[a] = geom_fmax(other[0][a], geom_fmax(other[1][a], other[2][a]));
     }
     for (size_t i = 0; i < q->count; ++i) {
         const cert_tri *f = &q->faces[i];
@@ -503,8 +503,8 @@ static long new_star(const sim *s, scratch *sc, const collapse *cl, double lo[3]
     for (size_t i = 0; i < n; ++i) {
         face_after(s, sc->changed.data[i], cl, &sc->tris[i]);
         for (int a = 0; a < 3; ++a) {
-            lo[a] = fmin(lo[a], sc->tris[i].lo[a]);
-            hi[a] = fmax(hi[a], sc->tris[i].hi[a]);
+            lo[a] = geom_fmin(lo[a], sc->tris[i].lo[a]);
+            hi[a] = geom_fmax(hi[a], sc->tris[i].hi[a]);
         }
     }
     return (long)n;
@@ -555,8 +555,8 @@ static int star_crosses(const sim *s, scratch *sc, const collapse *cl)
 static void box_add(double lo[3], double hi[3], const double p[3])
 {
     for (int a = 0; a < 3; ++a) {
-        lo[a] = fmin(lo[a], p[a]);
-        hi[a] = fmax(hi[a], p[a]);
+        lo[a] = geom_fmin(lo[a], p[a]);
+        hi[a] = geom_fmax(hi[a], p[a]);
     }
 }
 
@@ -970,8 +970,8 @@ static int commit(sim *s, const candidate *c)
             if (facegrid_insert(&s->grid, f, t.lo, t.hi) != FACEGRID_OK) return sc->oom = 1, 0;
             if (u32_push(&s->batch_faces, f)) return sc->oom = 1, 0;
             for (int a = 0; a < 3; ++a) {
-                star_box[a] = fmin(star_box[a], t.lo[a]);
-                star_box[3 + a] = fmax(star_box[3 + a], t.hi[a]);
+                star_box[a] = geom_fmin(star_box[a], t.lo[a]);
+                star_box[3 + a] = geom_fmax(star_box[3 + a], t.hi[a]);
             }
         }
     }
@@ -1319,7 +1319,7 @@ static int grid_rebuild(sim *s)
     for (uint32_t f = 0; f < s->nf; ++f) {
         if (!s->face_alive[f]) continue;
         face_after(s, f, NULL, &t);
-        double e = fmax(t.hi[0] - t.lo[0], fmax(t.hi[1] - t.lo[1], t.hi[2] - t.lo[2]));
+        double e = geom_fmax(t.hi[0] - t.lo[0], geom_fmax(t.hi[1] - t.lo[1], t.hi[2] - t.lo[2]));
         if (isfinite(e)) extent += e;
         alive++;
     }

@@ -98,8 +98,8 @@ static int cube_range(const thin_map *m, const vec3d p[3], int64_t lo[3], int64_
     const double c[3][3] = {{p[0].x, p[0].y, p[0].z}, {p[1].x, p[1].y, p[1].z}, {p[2].x, p[2].y, p[2].z}};
     double cubes = 1.0;
     for (int a = 0; a < 3; ++a) {
-        double l = floor(fmin(c[0][a], fmin(c[1][a], c[2][a])) * m->inv_cell);
-        double h = floor(fmax(c[0][a], fmax(c[1][a], c[2][a])) * m->inv_cell);
+        double l = floor(geom_fmin(c[0][a], geom_fmin(c[1][a], c[2][a])) * m->inv_cell);
+        double h = floor(geom_fmax(c[0][a], geom_fmax(c[1][a], c[2][a])) * m->inv_cell);
         if (!(l >= -4e15 && h <= 4e15)) return 0;
         lo[a] = (int64_t)l;
         hi[a] = (int64_t)h;
