@@ -264,6 +264,17 @@ static int insert_range(const facegrid *g, const double lo[3], const double hi[3
     return 1;
 }
 
+int facegrid_same_cells(const facegrid *g, const double lo_a[3], const double hi_a[3], const double lo_b[3],
+                        const double hi_b[3])
+{
+    int64_t a0[3], a1[3], b0[3], b1[3];
+    uint64_t total;
+    if (!g || !insert_range(g, lo_a, hi_a, a0, a1, &total) || !insert_range(g, lo_b, hi_b, b0, b1, &total)) return 0;
+    for (int k = 0; k < 3; k++)
+        if (a0[k] != b0[k] || a1[k] != b1[k]) return 0;
+    return 1;
+}
+
 facegrid_result facegrid_insert(facegrid *g, uint32_t face, const double lo[3], const double hi[3])
 {
     if (!g || !g->face_head || face >= g->face_capacity || !lo || !hi)

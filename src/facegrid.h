@@ -98,6 +98,12 @@ facegrid_result facegrid_init(facegrid *g, double cell_size, uint32_t face_capac
  * is absent and the grid otherwise unchanged. */
 facegrid_result facegrid_insert(facegrid *g, uint32_t face, const double lo[3], const double hi[3]);
 
+/* 1 when a face entered with the box [lo_a, hi_a] would be entered in
+ * exactly the same cells with [lo_b, hi_b] (neither going to the big list):
+ * its entries would not change, so moving it is not needed. 0 otherwise. */
+int facegrid_same_cells(const facegrid *g, const double lo_a[3], const double hi_a[3], const double lo_b[3],
+                        const double hi_b[3]);
+
 /* Removes every entry of face; nothing happens if it is absent or out of
  * range. Never allocates. */
 void facegrid_remove(facegrid *g, uint32_t face);

@@ -166,6 +166,9 @@ typedef struct sim {
      * crossings, which concerns only these faces */
     u32vec batch_faces, batch_star_end;
     f64vec batch_star_box;
+    /* the changed faces' boxes before a commit (6 per face, sc->changed's
+     * order): a face whose cells stay the same keeps its grid entries */
+    f64vec commit_old_box;
     registry reg;
     cert_original orig;
     uint8_t *death;
@@ -904,6 +907,13 @@ static int commit(sim *s, const candidate *c)
      * was tested for crossings (its star and the thin map are as they were) */
     if (c->thin && crosses_batch(s, sc, &cl)) return 0;
     if (sc->oom) return 0;
+    s->commit_old_box.size = 0;
+    for (size_t i = 0; i < sc->changed.size; ++i) {
+        cert_tri before;
+        face_after(s, sc->changed.data[i], NULL, &before);
+        for (int a = 0; a < 6; ++a)
+            if (f64_push(&s->commit_old_box, a < 3 ? before.lo[a] : before.hi[a - 3])) return sc->oom = 1, 0;
+    }
     /* which of v's wedges replaces u's in each face: read from the faces on
      * edge (u, v), one per side (two for a seam) */
     uint32_t map_class[2] = {NONE, NONE}, map_wedge[2] = {NONE, NONE}, mapped = 0;
@@ -957,6 +967,7 @@ static int commit(sim *s, const candidate *c)
             const double *record = changed_f64 + CHANGED_RECORD * (size_t)next_changed;
             memcpy(t.lo, record + 1, sizeof t.lo);
             memcpy(t.hi, record + 4, sizeof t.hi);
+            const double *old_box = s->commit_old_box.data + 6 * (size_t)next_changed;
             next_changed++;
             if (s->verify) { /* the certified geometry is the committed one */
                 cert_tri now;
@@ -967,7 +978,9 @@ static int commit(sim *s, const candidate *c)
                     return 0;
                 }
             }
-            if (facegrid_insert(&s->grid, f, t.lo, t.hi) != FACEGRID_OK) return sc->oom = 1, 0;
+            const int same_cells =
+                facegrid_contains(&s->grid, f) && facegrid_same_cells(&s->grid, old_box, old_box + 3, t.lo, t.hi);
+            if (!same_cells && facegrid_insert(&s->grid, f, t.lo, t.hi) != FACEGRID_OK) return sc->oom = 1, 0;
             if (u32_push(&s->batch_faces, f)) return sc->oom = 1, 0;
             for (int a = 0; a < 3; ++a) {
                 star_box[a] = geom_fmin(star_box[a], t.lo[a]);
@@ -1472,6 +1485,7 @@ static void sim_free(sim *s)
     free(s->batch_faces.data);
     free(s->batch_star_end.data);
     free(s->batch_star_box.data);
+    free(s->commit_old_box.data);
     free(s->change_stamp);
     free(s->reject_stamp);
     free(s->vertex_stamp);

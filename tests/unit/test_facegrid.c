@@ -168,6 +168,58 @@ static void test_random_against_brute_force(void)
     facegrid_free(&g);
 }
 
+/* The simplifier keeps a changed face's entries when facegrid_same_cells
+ * says its new box lies in the same cells: queries must then still report
+ * every face whose NEW box overlaps them. Faces are moved by small jitters
+ * (mostly the same cells) and sometimes to a fresh random box. */
+static void test_same_cells_moves(void)
+{
+    facegrid g;
+    memset(shadow, 0, sizeof shadow);
+    CHECK(facegrid_init(&g, 1.5, FACES) == FACEGRID_OK, "init");
+    for (uint32_t f = 0; f < FACES; f++) {
+        random_box(shadow[f].lo, shadow[f].hi);
+        CHECK(facegrid_insert(&g, f, shadow[f].lo, shadow[f].hi) == FACEGRID_OK, "insert");
+        shadow[f].present = 1;
+    }
+    int problems = 0, kept = 0, moved = 0;
+    for (int round = 0; round < 40; round++) {
+        for (int op = 0; op < 400; op++) {
+            uint32_t f = rng_below(FACES);
+            double lo[3], hi[3];
+            if (rng_below(8) == 0) {
+                random_box(lo, hi);
+            } else {
+                for (int k = 0; k < 3; k++) {
+                    lo[k] = shadow[f].lo[k] + rng_uniform(-0.3, 0.3);
+                    hi[k] = shadow[f].hi[k] + rng_uniform(-0.3, 0.3);
+                }
+            }
+            if (facegrid_same_cells(&g, shadow[f].lo, shadow[f].hi, lo, hi)) {
+                kept++;
+            } else {
+                CHECK(facegrid_insert(&g, f, lo, hi) == FACEGRID_OK, "move");
+                moved++;
+            }
+            memcpy(shadow[f].lo, lo, sizeof lo);
+            memcpy(shadow[f].hi, hi, sizeof hi);
+        }
+        for (int q = 0; q < 30; q++) {
+            double lo[3], hi[3];
+            random_box(lo, hi);
+            problems += check_query(&g, lo, hi);
+        }
+    }
+    CHECK(problems == 0, "%d problems after %d kept and %d moved faces", problems, kept, moved);
+    CHECK(kept > 1000 && moved > 1000, "both paths exercised: %d kept, %d moved", kept, moved);
+    const double lo[3] = {0.1, 0.1, 0.1}, hi[3] = {1.4, 1.4, 1.4}, hi_next[3] = {1.6, 1.4, 1.4};
+    const double lo_nan[3] = {NAN, 0.1, 0.1};
+    CHECK(facegrid_same_cells(&g, lo, hi, lo, hi) == 1, "a box has its own cells");
+    CHECK(facegrid_same_cells(&g, lo, hi, lo, hi_next) == 0, "a box reaching the next cell");
+    CHECK(facegrid_same_cells(&g, lo_nan, hi, lo_nan, hi) == 0, "the big list is never the same cells");
+    facegrid_free(&g);
+}
+
 static void test_big_faces(void)
 {
     facegrid g;
@@ -374,6 +426,7 @@ static void test_invalid_arguments(void)
 int main(void)
 {
     RUN(test_random_against_brute_force);
+    RUN(test_same_cells_moves);
     RUN(test_big_faces);
     RUN(test_growth_and_steady_state);
     RUN(test_early_stop);
