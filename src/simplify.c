@@ -151,7 +151,7 @@ typedef struct sim {
      * (NONE: not rejected) */
     uint32_t *change_stamp, *reject_stamp;
     uint32_t commit_clock;
-    uint32_t *vertex_stamp, *vertex_read_stamp; /* batch reservations */
+    uint32_t *vertex_stamp; /* batch reservations: the batch_stamp of the batch whose W holds the vertex */
     uint32_t batch_stamp;
     quadric *quadrics;
     double origin[3];
@@ -1230,13 +1230,16 @@ static size_t collect_candidates(sim *s, ranked *out)
 }
 
 /* Reserves a candidate's neighbourhood in the current batch. Its evaluation
- * reads the faces around every vertex within two edges of u (R); its commit
- * writes the faces around u and the lists and quadric of one neighbour, all
- * incident to {u} + N(u) (W); with full-edge placement the neighbour v moves
- * too, so the faces around v change and W is R (N(v) is within two edges).
- * Two candidates are independent when neither's W meets the other's R;
- * registrations are checked at commit (unit_stamp). Returns 1 and marks the
- * sets, or 0 when the candidate must wait. */
+ * reads the faces around every vertex within two edges of u (R, the 2-ball);
+ * its commit writes the faces around u and the lists and quadric of one
+ * neighbour, all incident to the 1-ball of u (W); with full-edge placement
+ * the neighbour v moves too, so the faces around v change and W is the
+ * 2-ball. Two candidates are independent when neither's W meets the other's
+ * R, that is when they are more than 2 + w edges apart (w = 1, or 2 with
+ * placement); and that holds exactly when u's R meets no W reserved before
+ * (the other half of the condition says the same thing), so only the W's
+ * are marked. Registrations are checked at commit (unit_stamp). Returns 1
+ * and marks u's W, or 0 when the candidate must wait. */
 static int reserve_footprint(sim *s, uint32_t u)
 {
     scratch *sc = &s->serial;
@@ -1244,12 +1247,10 @@ static int reserve_footprint(sim *s, uint32_t u)
     if (next_stamp(sc) || u32_push(&sc->ring, u)) return sc->oom = 1, 0;
     sc->vertex_seen[u] = sc->stamp;
     /* each vertex is checked as it is reached, so a candidate that must wait
-     * (most of them, late in a pass) stops at the first conflict; u and its
-     * 1-ring are in W, the 2-ring only with full-edge placement */
-    if (s->vertex_stamp[u] == s->batch_stamp || s->vertex_read_stamp[u] == s->batch_stamp) return 0;
+     * (most of them, late in a pass) stops at the first conflict */
+    if (s->vertex_stamp[u] == s->batch_stamp) return 0;
     size_t begin = 0, one_ring_end = 1;
     for (int depth = 0; depth < 2; ++depth) {
-        const int writes = depth == 0 || s->full_edge;
         size_t end = sc->ring.size;
         for (size_t i = begin; i < end; ++i) {
             uint32_t x = sc->ring.data[i];
@@ -1259,8 +1260,7 @@ static int reserve_footprint(sim *s, uint32_t u)
                     uint32_t y = s->corner_vertex[3 * (c / 3) + k];
                     if (sc->vertex_seen[y] == sc->stamp) continue;
                     sc->vertex_seen[y] = sc->stamp;
-                    if (s->vertex_stamp[y] == s->batch_stamp) return 0;                /* R meets a W */
-                    if (writes && s->vertex_read_stamp[y] == s->batch_stamp) return 0; /* W meets an R */
+                    if (s->vertex_stamp[y] == s->batch_stamp) return 0; /* R meets a W */
                     if (u32_push(&sc->ring, y)) return sc->oom = 1, 0;
                 }
             }
@@ -1269,10 +1269,7 @@ static int reserve_footprint(sim *s, uint32_t u)
         if (depth == 0) one_ring_end = sc->ring.size;
     }
     const size_t write_end = s->full_edge ? sc->ring.size : one_ring_end;
-    for (size_t i = 0; i < sc->ring.size; ++i) {
-        s->vertex_read_stamp[sc->ring.data[i]] = s->batch_stamp;
-        if (i < write_end) s->vertex_stamp[sc->ring.data[i]] = s->batch_stamp;
-    }
+    for (size_t i = 0; i < write_end; ++i) s->vertex_stamp[sc->ring.data[i]] = s->batch_stamp;
     return 1;
 }
 
@@ -1489,7 +1486,6 @@ static void sim_free(sim *s)
     free(s->change_stamp);
     free(s->reject_stamp);
     free(s->vertex_stamp);
-    free(s->vertex_read_stamp);
     free(s->quadrics);
     facegrid_free(&s->grid);
     thin_map_free(&s->thin);
@@ -1556,7 +1552,6 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     s->change_stamp = calloc((size_t)nv + 1, sizeof *s->change_stamp);
     s->reject_stamp = malloc(((size_t)nv + 1) * sizeof *s->reject_stamp);
     s->vertex_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_stamp);
-    s->vertex_read_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_read_stamp);
     s->quadrics = calloc((size_t)nv + 1, sizeof *s->quadrics);
     s->special = malloc((size_t)nv + 1);
     if (s->special)
@@ -1564,7 +1559,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
             s->special[v] = w->vertex_kind[v] == WELD_BORDER || w->vertex_kind[v] == WELD_LOCKED;
     if (!s->special || !s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next || !s->face_alive ||
         !s->face_bound || !s->vertex_first || !s->vertex_alive || !s->movable || !s->change_stamp ||
-        !s->reject_stamp || !s->vertex_stamp || !s->vertex_read_stamp || !s->quadrics)
+        !s->reject_stamp || !s->vertex_stamp || !s->quadrics)
         return -1;
     for (uint32_t t = 0; t < s->thread_count; ++t)
         if (scratch_init(&s->scratch[t], nv)) return -1;
