@@ -11,6 +11,7 @@
 #include "geom.h"
 
 #include <assert.h>
+#include <pthread.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -252,29 +253,12 @@ static uint32_t split_by_sah(build_ref *refs, uint32_t count, int axis,
     return i;
 }
 
-/* Builds the subtree over refs[first .. first + count), which span `bounds`,
- * at `depth`; returns its root's node index. Nodes are laid out depth first,
- * so a left child always directly follows its parent. */
-static uint32_t build_node(builder *b, uint32_t first, uint32_t count, uint32_t depth,
-                           const range_bounds *bounds)
+/* How a node over refs[0 .. count) (spanning `bounds`, at `depth`) splits:
+ * returns the left count (the refs are reordered so that the left part comes
+ * first) and both parts' bounds. */
+static uint32_t split_range(build_ref *refs, uint32_t count, uint32_t depth, const range_bounds *bounds,
+                            range_bounds *left_bounds, range_bounds *right_bounds)
 {
-    uint32_t index = b->node_count++;
-    build_ref *refs = b->refs + first;
-    if (depth > b->depth) b->depth = depth;
-
-    /* The node box is the exact float union of its triangles' vertex boxes:
-     * no rounding is involved, so nothing needs widening (see bvh.h). */
-    bvh_node *node = &b->nodes[index];
-    for (int axis = 0; axis < 3; axis++) {
-        node->lo[axis] = bounds->lo[axis];
-        node->hi[axis] = bounds->hi[axis];
-    }
-    if (count <= LEAF_MAX_TRIANGLES) {
-        node->offset = first;
-        node->count = count;
-        return index;
-    }
-
     int axis = 0;
     for (int a = 1; a < 3; a++)
         if ((double)bounds->centre_hi[a] - bounds->centre_lo[a] >
@@ -284,31 +268,116 @@ static uint32_t build_node(builder *b, uint32_t first, uint32_t count, uint32_t 
     /* SAH unless the median is needed to keep every leaf within
      * BVH_MAX_DEPTH: a median split reaches leaves within ceil_log2(count)
      * more levels, SAH guarantees nothing. */
-    range_bounds left_bounds, right_bounds;
     uint32_t left_count = 0;
     if (depth + ceil_log2(count) + 1 < BVH_MAX_DEPTH)
-        left_count = split_by_sah(refs, count, axis, bounds, &left_bounds, &right_bounds);
+        left_count = split_by_sah(refs, count, axis, bounds, left_bounds, right_bounds);
     if (left_count == 0) {
         left_count = count / 2;
         /* When every centre is the same point any halving will do. */
         if (bounds->centre_hi[axis] > bounds->centre_lo[axis])
             select_nth_by_centre(refs, count, left_count, axis);
-        bounds_of_refs(&left_bounds, refs, left_count);
-        bounds_of_refs(&right_bounds, refs + left_count, count - left_count);
+        bounds_of_refs(left_bounds, refs, left_count);
+        bounds_of_refs(right_bounds, refs + left_count, count - left_count);
     }
     assert(left_count >= LEAF_MIN_TRIANGLES && count - left_count >= LEAF_MIN_TRIANGLES);
+    return left_count;
+}
 
+/* The node box is the exact float union of its triangles' vertex boxes: no
+ * rounding is involved, so nothing needs widening (see bvh.h). */
+static void set_box(bvh_node *node, const range_bounds *bounds)
+{
+    for (int axis = 0; axis < 3; axis++) {
+        node->lo[axis] = bounds->lo[axis];
+        node->hi[axis] = bounds->hi[axis];
+    }
+}
+
+/* Builds the subtree over refs[first .. first + count), which span `bounds`,
+ * at `depth`; returns its root's node index. Nodes are laid out depth first,
+ * so a left child always directly follows its parent. */
+static uint32_t build_node(builder *b, uint32_t first, uint32_t count, uint32_t depth,
+                           const range_bounds *bounds)
+{
+    uint32_t index = b->node_count++;
+    if (depth > b->depth) b->depth = depth;
+    set_box(&b->nodes[index], bounds);
+    if (count <= LEAF_MAX_TRIANGLES) {
+        b->nodes[index].offset = first;
+        b->nodes[index].count = count;
+        return index;
+    }
+    range_bounds left_bounds, right_bounds;
+    const uint32_t left_count = split_range(b->refs + first, count, depth, bounds, &left_bounds, &right_bounds);
     build_node(b, first, left_count, depth + 1, &left_bounds);
     uint32_t right = build_node(b, first + left_count, count - left_count, depth + 1,
                                 &right_bounds);
-    /* Through the array, not `node`: kept as an index for clarity. */
     b->nodes[index].offset = right;
     b->nodes[index].count = 0;
     return index;
 }
 
+/* The right subtree of the root, built on a second thread. */
+typedef struct subtree_job {
+    builder b;
+    uint32_t first, count;
+    range_bounds bounds;
+} subtree_job;
+
+static void *build_subtree(void *p)
+{
+    subtree_job *job = p;
+    build_node(&job->b, job->first, job->count, 1, &job->bounds);
+    return NULL;
+}
+
+/* Builds the whole tree into b (refs made, nodes allocated). With threads > 1
+ * the root's two subtrees are built at once, into the same arrays: refs are
+ * split by then, the left subtree's nodes start at 1, the right one's at
+ * left_count (the left one has fewer nodes than triangles, so they cannot
+ * meet); then the right block moves down behind the left one and its child
+ * indices with it. The result is the sequential layout exactly. */
+static void build_tree(builder *b, uint32_t n, unsigned threads)
+{
+    range_bounds everything;
+    bounds_of_refs(&everything, b->refs, n);
+    if (threads < 2 || n <= 4096) { /* small trees: a thread costs more than it saves */
+        build_node(b, 0, n, 0, &everything);
+        return;
+    }
+    range_bounds left_bounds;
+    subtree_job right = {.b = {b->refs, b->nodes, 0, 1}};
+    const uint32_t left_count = split_range(b->refs, n, 0, &everything, &left_bounds, &right.bounds);
+    right.b.node_count = left_count;
+    right.first = left_count;
+    right.count = n - left_count;
+    pthread_t thread;
+    const int beside = pthread_create(&thread, NULL, build_subtree, &right) == 0;
+    b->node_count = 1;
+    b->depth = 0;
+    build_node(b, 0, left_count, 1, &left_bounds);
+    if (beside) pthread_join(thread, NULL);
+    else build_subtree(&right);
+    const uint32_t right_root = b->node_count, shift = left_count - right_root;
+    const uint32_t right_nodes = right.b.node_count - left_count;
+    for (uint32_t i = left_count; i < right.b.node_count; i++)
+        if (b->nodes[i].count == 0) b->nodes[i].offset -= shift;
+    memmove(b->nodes + right_root, b->nodes + left_count, sizeof *b->nodes * (size_t)right_nodes);
+    set_box(&b->nodes[0], &everything);
+    b->nodes[0].offset = right_root;
+    b->nodes[0].count = 0;
+    b->node_count = right_root + right_nodes;
+    if (right.b.depth > b->depth) b->depth = right.b.depth;
+}
+
 bvh_result bvh_build(bvh *tree, const float *positions, size_t vertex_count,
                      const uint32_t *indices, size_t triangle_count)
+{
+    return bvh_build_threads(tree, positions, vertex_count, indices, triangle_count, 1);
+}
+
+bvh_result bvh_build_threads(bvh *tree, const float *positions, size_t vertex_count,
+                             const uint32_t *indices, size_t triangle_count, unsigned threads)
 {
     memset(tree, 0, sizeof *tree);
     if (triangle_count > BVH_MAX_TRIANGLES) return BVH_ERROR_TOO_MANY_TRIANGLES;
@@ -337,9 +406,7 @@ bvh_result bvh_build(bvh *tree, const float *positions, size_t vertex_count,
         return result;
     }
 
-    range_bounds everything;
-    bounds_of_refs(&everything, b.refs, n);
-    build_node(&b, 0, n, 0, &everything);
+    build_tree(&b, n, threads);
     assert(b.node_count <= n && b.depth <= BVH_MAX_DEPTH);
     for (uint32_t i = 0; i < n; i++) tree->triangle_order[i] = b.refs[i].triangle;
     free(b.refs);

@@ -174,7 +174,7 @@ static int collect_cluster_vertices(cert_original *o, uint32_t vertex_count)
 
 int cert_original_init(cert_original *o, const float *positions, uint32_t vertex_count,
                        const uint32_t *triangles, uint32_t triangle_count, const int32_t *material,
-                       const uint32_t *vertex_offsets, const uint32_t *vertex_triangles)
+                       const uint32_t *vertex_offsets, const uint32_t *vertex_triangles, unsigned threads)
 {
     memset(o, 0, sizeof *o);
     o->triangle_count = triangle_count;
@@ -200,7 +200,7 @@ int cert_original_init(cert_original *o, const float *positions, uint32_t vertex
         o->normals[3 * (size_t)t + 2] = n.z;
     }
     o->mean_area = triangle_count ? area / triangle_count : 0.0;
-    if (bvh_build(&o->tree, positions, vertex_count, triangles, triangle_count) != BVH_OK ||
+    if (bvh_build_threads(&o->tree, positions, vertex_count, triangles, triangle_count, threads) != BVH_OK ||
         build_clusters(o) != 0 || collect_cluster_vertices(o, vertex_count) != 0) {
         cert_original_free(o);
         return -1;

@@ -78,10 +78,11 @@ typedef struct cert_original {
     double mean_area; /* of its triangles */
 } cert_original;
 
-/* Builds normals and the BVH. Returns 0, or -1 (out of memory / bad input). */
+/* Builds normals and the BVH (with bvh_build_threads: the same tree for any
+ * thread count). Returns 0, or -1 (out of memory / bad input). */
 int cert_original_init(cert_original *o, const float *positions, uint32_t vertex_count,
                        const uint32_t *triangles, uint32_t triangle_count, const int32_t *material,
-                       const uint32_t *vertex_offsets, const uint32_t *vertex_triangles);
+                       const uint32_t *vertex_offsets, const uint32_t *vertex_triangles, unsigned threads);
 void cert_original_free(cert_original *o);
 
 /* A candidate face: its current corners, material group and unit normal. */

@@ -1590,7 +1590,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     for (int k = 0; k < 3; ++k) s->origin[k] = nv ? 0.5 * (lo[k] + hi[k]) : 0.0;
     for (uint32_t f = 0; f < nf; ++f) add_plane(s, f);
     if (cert_original_init(&s->orig, w->positions, nv, w->triangle_vertices, nf, s->face_material,
-                           w->vertex_triangle_offsets, w->vertex_triangles))
+                           w->vertex_triangle_offsets, w->vertex_triangles, s->thread_count))
         return -1;
     const uint32_t clusters = s->orig.cluster_count;
     const size_t units = (size_t)nf + clusters;

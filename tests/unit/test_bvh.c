@@ -678,6 +678,30 @@ static void test_build_is_deterministic(void)
     mesh_free(&m);
 }
 
+/* Two threads build the root's subtrees at once: the tree must be the
+ * one-thread tree node for node (a soup, a sphere whose root split is
+ * uneven, and a grid of exact ties), and a tree too small for a thread too. */
+static void test_threaded_build_is_the_same_tree(void)
+{
+    mesh meshes[4] = {make_soup(20000, 0.0), make_sphere(90, 120), make_grid(80), make_soup(3000, 0.0)};
+    for (int i = 0; i < 4; i++) {
+        const mesh *m = &meshes[i];
+        bvh one, two;
+        CHECK(bvh_build(&one, m->positions, m->vertex_count, m->indices, m->triangle_count) == BVH_OK &&
+                  bvh_build_threads(&two, m->positions, m->vertex_count, m->indices, m->triangle_count, 2) ==
+                      BVH_OK,
+              "mesh %d: build", i);
+        CHECK(one.node_count == two.node_count && one.depth == two.depth &&
+                  memcmp(one.nodes, two.nodes, one.node_count * sizeof(bvh_node)) == 0 &&
+                  memcmp(one.triangle_order, two.triangle_order, one.triangle_count * sizeof(uint32_t)) == 0,
+              "mesh %d (%zu triangles): the two-thread tree differs (%u / %u nodes)", i, m->triangle_count,
+              one.node_count, two.node_count);
+        bvh_free(&one);
+        bvh_free(&two);
+        mesh_free(&meshes[i]);
+    }
+}
+
 int main(void)
 {
     RUN(test_random_soup_matches_brute_force);
@@ -690,5 +714,6 @@ int main(void)
     RUN(test_tiny_trees);
     RUN(test_build_rejects_bad_input);
     RUN(test_build_is_deterministic);
+    RUN(test_threaded_build_is_the_same_tree);
     return check_summary();
 }

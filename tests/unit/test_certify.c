@@ -86,7 +86,7 @@ static int om_build(orig_mesh *m)
         }
     /* a triangle with a repeated vertex would leave holes: not used here */
     free(fill);
-    int rc = cert_original_init(&m->o, m->pos, m->nv, m->tri, m->nt, m->mat, m->off, m->vt);
+    int rc = cert_original_init(&m->o, m->pos, m->nv, m->tri, m->nt, m->mat, m->off, m->vt, 1);
     m->built = rc == 0;
     return rc;
 }
