@@ -16,6 +16,7 @@
 
 #include <math.h>
 #include <pthread.h>
+#include <sched.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -796,11 +797,18 @@ static void evaluate(const sim *s, scratch *sc, candidate *c)
 
 /* ---- parallel evaluation of a batch ------------------------------------------ */
 
+/* A batch is evaluated while it is being reserved: evaluation only reads the
+ * mesh, and reservation only writes its stamps and the serial scratch, so a
+ * worker may take each candidate as soon as the main thread has reserved it.
+ * Once the batch is complete (closed), the main thread evaluates too. Which
+ * candidates form the batch, and what each evaluation sees, do not depend on
+ * the timing. */
 typedef struct batch_job {
     sim *s;
     candidate *cands;
-    size_t count;
-    atomic_size_t next;
+    atomic_size_t next;      /* the next candidate to claim */
+    atomic_size_t published; /* cands[0 .. published) are reserved */
+    atomic_int closed;       /* published is final */
 } batch_job;
 
 typedef struct worker_arg {
@@ -814,36 +822,67 @@ static void *worker(void *p)
     batch_job *job = a->job;
     scratch *sc = &job->s->scratch[a->thread];
     for (;;) {
-        size_t i = atomic_fetch_add(&job->next, 1);
-        if (i >= job->count) break;
-        job->cands[i].thread = a->thread;
-        evaluate(job->s, sc, &job->cands[i]);
+        /* closed before published: once closed is seen, published is final */
+        const int closed = atomic_load_explicit(&job->closed, memory_order_acquire);
+        const size_t ready = atomic_load_explicit(&job->published, memory_order_acquire);
+        size_t i = atomic_load_explicit(&job->next, memory_order_relaxed);
+        if (i < ready) {
+            if (atomic_compare_exchange_weak_explicit(&job->next, &i, i + 1, memory_order_relaxed,
+                                                      memory_order_relaxed)) {
+                job->cands[i].thread = a->thread;
+                evaluate(job->s, sc, &job->cands[i]);
+            }
+            continue;
+        }
+        if (closed) return NULL;
+        sched_yield(); /* the main thread is reserving the next candidate */
     }
-    return NULL;
 }
 
-static void evaluate_batch(sim *s, candidate *cands, size_t count)
+typedef struct batch_run {
+    batch_job job;
+    worker_arg args[MAX_THREADS];
+    pthread_t threads[MAX_THREADS];
+    uint32_t started; /* workers 1 .. started run */
+} batch_run;
+
+static void batch_open(sim *s, batch_run *r, candidate *cands)
 {
-    batch_job job = {s, cands, count, 0};
+    r->job.s = s;
+    r->job.cands = cands;
+    atomic_init(&r->job.next, 0);
+    atomic_init(&r->job.published, 0);
+    atomic_init(&r->job.closed, 0);
+    r->started = 0;
     for (uint32_t t = 0; t < s->thread_count; ++t) {
         s->scratch[t].out_u32.size = 0;
         s->scratch[t].out_f64.size = 0;
     }
-    worker_arg args[MAX_THREADS];
-    pthread_t threads[MAX_THREADS];
-    uint32_t started = 0;
-    uint32_t want = s->thread_count;
-    if (want > count) want = (uint32_t)count;
-    for (uint32_t t = 1; t < want; ++t) {
-        args[t].job = &job;
-        args[t].thread = t;
-        if (pthread_create(&threads[t], NULL, worker, &args[t]) != 0) break;
-        started = t;
+}
+
+/* cands[0 .. count) are reserved; the workers start with the first one. */
+static void batch_publish(sim *s, batch_run *r, size_t count)
+{
+    atomic_store_explicit(&r->job.published, count, memory_order_release);
+    if (count != 1) return;
+    for (uint32_t t = 1; t < s->thread_count; ++t) {
+        r->args[t].job = &r->job;
+        r->args[t].thread = t;
+        if (pthread_create(&r->threads[t], NULL, worker, &r->args[t]) != 0) break;
+        r->started = t;
     }
-    args[0].job = &job;
-    args[0].thread = 0;
-    worker(&args[0]);
-    for (uint32_t t = 1; t <= started; ++t) pthread_join(threads[t], NULL);
+}
+
+/* No more candidates: evaluates what is left on this thread too, and waits
+ * for the workers. */
+static void batch_close(batch_run *r)
+{
+    atomic_store_explicit(&r->job.closed, 1, memory_order_release);
+    r->args[0].job = &r->job;
+    r->args[0].thread = 0;
+    worker(&r->args[0]);
+    for (uint32_t t = 1; t <= r->started; ++t) pthread_join(r->threads[t], NULL);
+    r->started = 0;
 }
 
 /* ---- commit -------------------------------------------------------------------- */
@@ -1365,43 +1404,43 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
     size_t n = collect_candidates(s, ranks);
     st->seconds_select += lp_seconds() - t0;
     long commits = 0;
-    size_t count = 0;
     *waiting = 0;
-    if (++s->batch_stamp == 0) return -1;
-    for (size_t i = 0; i < n; ++i) {
+    batch_run run;
+    for (size_t i = 0; i < n;) {
+        if (++s->batch_stamp == 0) return -1;
+        batch_open(s, &run, batch);
+        size_t count = 0;
         double t1 = lp_seconds();
-        int reserved = reserve_footprint(s, ranks[i].u);
-        st->seconds_select += lp_seconds() - t1;
+        for (; i < n && count < BATCH_SIZE; ++i) {
+            if (!reserve_footprint(s, ranks[i].u)) {
+                if (s->serial.oom) break;
+                (*waiting)++;
+                continue;
+            }
+            batch[count++].u = ranks[i].u;
+            batch_publish(s, &run, count);
+        }
+        const double t2 = lp_seconds();
+        st->seconds_select += t2 - t1;
+        batch_close(&run);
+        st->seconds_certify += lp_seconds() - t2;
         if (s->serial.oom) return -1;
-        if (!reserved) {
-            (*waiting)++;
-            continue;
-        }
-        batch[count++].u = ranks[i].u;
-        if (count == BATCH_SIZE || i + 1 == n) {
-            process_batch(s, batch, count, &commits);
-            if (commits < 0) return -1;
-            count = 0;
-            if (++s->batch_stamp == 0) return -1;
-            /* the first pass of a level removes most faces: cells sized for
-             * the faces it started with would make every crossing query
-             * visit many cells */
-            if (s->faces_alive < s->grid_built_with / 2 && grid_rebuild(s)) return -1;
-        }
+        if (count) process_batch(s, batch, count, &commits);
+        if (commits < 0) return -1;
+        /* the first pass of a level removes most faces: cells sized for the
+         * faces it started with would make every crossing query visit many
+         * cells */
+        if (s->faces_alive < s->grid_built_with / 2 && grid_rebuild(s)) return -1;
     }
-    if (count) process_batch(s, batch, count, &commits);
     return commits;
 }
 
-/* Certifies a batch in parallel, then commits the accepted candidates in
+/* Finishes a batch's evaluation, then commits the accepted candidates in
  * order. Adds to *commits, or sets it to -1 on failure. */
 static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
 {
     simplify_stats *st = s->stats;
-    double t2 = lp_seconds();
-    evaluate_batch(s, batch, count);
     double t3 = lp_seconds();
-    st->seconds_certify += t3 - t2;
     st->batches++;
     for (uint32_t t = 0; t < s->thread_count; ++t)
         if (s->scratch[t].oom) {

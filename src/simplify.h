@@ -68,6 +68,10 @@ typedef struct simplify_stats {
      * by the between-pass sweep, split back by a collapse, whole at the end */
     uint64_t cluster_merges, cluster_splits;
     uint32_t clusters_whole;
+    /* the main thread's time: choosing candidates and reserving batches
+     * (the workers evaluate the reserved candidates meanwhile), finishing a
+     * batch's evaluation once it is complete, committing; and the level's
+     * whole time */
     double seconds_select, seconds_certify, seconds_commit, seconds;
 } simplify_stats;
 
