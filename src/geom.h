@@ -39,13 +39,13 @@ typedef struct {
 static inline double geom_fmin(double a, double b)
 {
     const double m = a < b ? a : b; /* one minsd */
-    return (a != a) | (b != b) ? (b != b ? a : b) : m; /* predictable: NaN is rare */
+    return ((a != a) | (b != b)) ? (b != b ? a : b) : m; /* predictable: NaN is rare */
 }
 
 static inline double geom_fmax(double a, double b)
 {
     const double m = a > b ? a : b;
-    return (a != a) | (b != b) ? (b != b ? a : b) : m;
+    return ((a != a) | (b != b)) ? (b != b ? a : b) : m;
 }
 
 /* ---- small vector helpers ------------------------------------------------ */
