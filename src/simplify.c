@@ -8,9 +8,11 @@
  * certificate: (b) the originals whose registration a change touches, then
  * (a) the changed faces (certify.h).
  *
- * The main loop, per level:
- *   collect_candidates -> sort -> while unprocessed: build_batch ->
- *   evaluate_batch (parallel) -> commit_batch (serial, in order)
+ * The main loop, per level and pass:
+ *   collect_candidates -> sort -> while unprocessed: reserve a batch
+ *   (serial; the workers evaluate each candidate as soon as it is reserved)
+ *   -> batch_close (the rest of the evaluation, parallel) -> process_batch
+ *   (commits, serial, in order)
  */
 #include "simplify.h"
 
