@@ -375,7 +375,7 @@ static int legal_targets(const sim *s, scratch *sc, uint32_t u, int nclass)
 /* ---- evaluation of one candidate (read-only on the mesh) --------------------- */
 
 /* Face f as it is (cl NULL) or after the collapse cl. */
-static void face_after(const sim *s, uint32_t f, const collapse *cl, cert_tri *t)
+static void corners_after(const sim *s, uint32_t f, const collapse *cl, cert_tri *t)
 {
     for (int k = 0; k < 3; ++k) {
         uint32_t x = s->corner_vertex[3 * f + k];
@@ -386,7 +386,25 @@ static void face_after(const sim *s, uint32_t f, const collapse *cl, cert_tri *t
     }
     t->material = s->face_material[f];
     t->id = f;
+}
+
+static void face_after(const sim *s, uint32_t f, const collapse *cl, cert_tri *t)
+{
+    corners_after(s, f, cl, t);
     cert_face_normal(t);
+}
+
+/* face_after without the normal (n and degenerate are left unset), for the
+ * callers that need only the corners and the box: the unit normal's square
+ * root and division were most of face_after's time. The box is
+ * cert_face_normal's, expression for expression. */
+static void face_box_after(const sim *s, uint32_t f, const collapse *cl, cert_tri *t)
+{
+    corners_after(s, f, cl, t);
+    for (int k = 0; k < 3; ++k) {
+        t->lo[k] = geom_fmin(t->p[0][k], geom_fmin(t->p[1][k], t->p[2][k]));
+        t->hi[k] = geom_fmax(t->p[0][k], geom_fmax(t->p[1][k], t->p[2][k]));
+    }
 }
 
 static int next_stamp(scratch *sc)
@@ -499,15 +517,15 @@ static int crosses(void *context, uint32_t g)
     return 0;
 }
 
-/* The new star's faces into sc->tris, and their box. Returns the face count,
- * or -1 when memory runs out. */
+/* The new star's faces into sc->tris (corners and boxes, no normals), and
+ * their box. Returns the face count, or -1 when memory runs out. */
 static long new_star(const sim *s, scratch *sc, const collapse *cl, double lo[3], double hi[3])
 {
     const size_t n = sc->changed.size;
     if (grow((void **)&sc->tris, &sc->tris_cap, n + 1, sizeof *sc->tris)) return -1;
     for (int a = 0; a < 3; ++a) lo[a] = INFINITY, hi[a] = -INFINITY;
     for (size_t i = 0; i < n; ++i) {
-        face_after(s, sc->changed.data[i], cl, &sc->tris[i]);
+        face_box_after(s, sc->changed.data[i], cl, &sc->tris[i]);
         for (int a = 0; a < 3; ++a) {
             lo[a] = geom_fmin(lo[a], sc->tris[i].lo[a]);
             hi[a] = geom_fmax(hi[a], sc->tris[i].hi[a]);
@@ -532,8 +550,9 @@ static int crosses_batch(const sim *s, scratch *sc, const collapse *cl)
     for (size_t i = 0; i < s->batch_star_end.size; ++i) {
         const double *box = s->batch_star_box.data + 6 * i;
         const uint32_t end = s->batch_star_end.data[i];
-        int apart = 0;
-        for (int a = 0; a < 3; ++a) apart |= box[a] > hi[a] || box[3 + a] < lo[a];
+        /* | rather than ||: one predictable branch per star (most are apart) */
+        const int apart = (box[0] > hi[0]) | (box[3] < lo[0]) | (box[1] > hi[1]) | (box[4] < lo[1]) |
+                          (box[2] > hi[2]) | (box[5] < lo[2]);
         if (!apart)
             for (uint32_t k = begin; k < end; ++k)
                 if (crosses(&q, s->batch_faces.data[k])) return 1;
@@ -951,7 +970,7 @@ static int commit(sim *s, const candidate *c)
     s->commit_old_box.size = 0;
     for (size_t i = 0; i < sc->changed.size; ++i) {
         cert_tri before;
-        face_after(s, sc->changed.data[i], NULL, &before);
+        face_box_after(s, sc->changed.data[i], NULL, &before);
         for (int a = 0; a < 6; ++a)
             if (f64_push(&s->commit_old_box, a < 3 ? before.lo[a] : before.hi[a - 3])) return sc->oom = 1, 0;
     }
@@ -1012,7 +1031,7 @@ static int commit(sim *s, const candidate *c)
             next_changed++;
             if (s->verify) { /* the certified geometry is the committed one */
                 cert_tri now;
-                face_after(s, f, NULL, &now);
+                face_box_after(s, f, NULL, &now);
                 if (memcmp(now.lo, t.lo, sizeof t.lo) || memcmp(now.hi, t.hi, sizeof t.hi)) {
                     s->verify_failed = 1;
                     snprintf(s->verify_msg, sizeof s->verify_msg, "collapse %u -> %u: face %u is not where it was certified", u, v, f);
@@ -1369,7 +1388,7 @@ static int grid_rebuild(sim *s)
     cert_tri t;
     for (uint32_t f = 0; f < s->nf; ++f) {
         if (!s->face_alive[f]) continue;
-        face_after(s, f, NULL, &t);
+        face_box_after(s, f, NULL, &t);
         double e = geom_fmax(t.hi[0] - t.lo[0], geom_fmax(t.hi[1] - t.lo[1], t.hi[2] - t.lo[2]));
         if (isfinite(e)) extent += e;
         alive++;
@@ -1386,7 +1405,7 @@ static int grid_rebuild(sim *s)
     if (facegrid_init(&s->grid, cell, s->nf) != FACEGRID_OK) return -1;
     for (uint32_t f = 0; f < s->nf; ++f) {
         if (!s->face_alive[f]) continue;
-        face_after(s, f, NULL, &t);
+        face_box_after(s, f, NULL, &t);
         if (facegrid_insert(&s->grid, f, t.lo, t.hi) != FACEGRID_OK) return -1;
     }
     s->grid_built_with = alive;
