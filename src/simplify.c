@@ -1456,8 +1456,8 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
     return commits;
 }
 
-/* Finishes a batch's evaluation, then commits the accepted candidates in
- * order. Adds to *commits, or sets it to -1 on failure. */
+/* Commits an evaluated batch's accepted candidates in order. Adds to
+ * *commits, or sets it to -1 on failure. */
 static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
 {
     simplify_stats *st = s->stats;
