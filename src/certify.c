@@ -228,10 +228,7 @@ void cert_face_normal(cert_tri *f)
     f->n[0] = n.x;
     f->n[1] = n.y;
     f->n[2] = n.z;
-    for (int k = 0; k < 3; ++k) {
-        f->lo[k] = geom_fmin(f->p[0][k], geom_fmin(f->p[1][k], f->p[2][k]));
-        f->hi[k] = geom_fmax(f->p[0][k], geom_fmax(f->p[1][k], f->p[2][k]));
-    }
+    geom_triangle_box((const double(*)[3])f->p, f->lo, f->hi);
 }
 
 /* Squared distance from p to the box of f: a lower bound of d(p, f)^2. */

@@ -48,6 +48,15 @@ static inline double geom_fmax(double a, double b)
     return ((a != a) | (b != b)) ? (b != b ? a : b) : m;
 }
 
+/* The box of a triangle's three corners. */
+static inline void geom_triangle_box(const double p[3][3], double lo[3], double hi[3])
+{
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = geom_fmin(p[0][k], geom_fmin(p[1][k], p[2][k]));
+        hi[k] = geom_fmax(p[0][k], geom_fmax(p[1][k], p[2][k]));
+    }
+}
+
 /* ---- small vector helpers ------------------------------------------------ */
 
 static inline vec3d geom_vec3d(double x, double y, double z)

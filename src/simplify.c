@@ -396,15 +396,11 @@ static void face_after(const sim *s, uint32_t f, const collapse *cl, cert_tri *t
 
 /* face_after without the normal (n and degenerate are left unset), for the
  * callers that need only the corners and the box: the unit normal's square
- * root and division were most of face_after's time. The box is
- * cert_face_normal's, expression for expression. */
+ * root and division were most of face_after's time. */
 static void face_box_after(const sim *s, uint32_t f, const collapse *cl, cert_tri *t)
 {
     corners_after(s, f, cl, t);
-    for (int k = 0; k < 3; ++k) {
-        t->lo[k] = geom_fmin(t->p[0][k], geom_fmin(t->p[1][k], t->p[2][k]));
-        t->hi[k] = geom_fmax(t->p[0][k], geom_fmax(t->p[1][k], t->p[2][k]));
-    }
+    geom_triangle_box((const double(*)[3])t->p, t->lo, t->hi);
 }
 
 static int next_stamp(scratch *sc)
@@ -504,10 +500,7 @@ static int crosses(void *context, uint32_t g)
     if (q->cl->moved && face_has(s, g, q->cl->v)) return 0;
     double other[3][3], lo[3], hi[3];
     for (int k = 0; k < 3; ++k) vertex_position(s, s->corner_vertex[3 * g + k], other[k]);
-    for (int a = 0; a < 3; ++a) {
-        lo[a] = geom_fmin(other[0][a], geom_fmin(other[1][a], other[2][a]));
-        hi[a] = geom_fmax(other[0][a], geom_fmax(other[1][a], other[2][a]));
-    }
+    geom_triangle_box((const double(*)[3])other, lo, hi);
     for (size_t i = 0; i < q->count; ++i) {
         const cert_tri *f = &q->faces[i];
         int apart = 0; /* boxes first: most grid neighbours are not close */
