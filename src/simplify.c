@@ -12,7 +12,8 @@
  *   collect_candidates -> sort -> while unprocessed: reserve a batch
  *   (serial; the workers evaluate each candidate as soon as it is reserved)
  *   -> batch_close (the rest of the evaluation, parallel) -> process_batch
- *   (commits, serial, in order)
+ *   (commits, serial, in order; a helper thread applies their face-grid
+ *   updates meanwhile, gridlog.h)
  */
 #include "simplify.h"
 
@@ -28,6 +29,7 @@
 #include "certify.h"
 #include "clock.h"
 #include "facegrid.h"
+#include "gridlog.h"
 #include "geom.h"
 #include "intersect.h"
 #include "keymap.h"
@@ -36,6 +38,7 @@
 #include "thin.h"
 
 #define NONE UINT32_MAX
+#define GRIDLOG_RING 4096   /* grid updates in flight (about 100 bytes each) */
 #define BATCH_SIZE 512      /* fixed: the result must not depend on the thread count */
 #define TARGETS_TRIED 3     /* cheapest legal targets tried per candidate */
 #define MAX_CANDIDATE_FACES 384
@@ -161,6 +164,7 @@ typedef struct sim {
     /* every alive face, for the self-intersection test; rebuilt when the
      * faces have halved, so cells follow the faces' growing size */
     facegrid grid;
+    gridlog grid_log; /* the commit's updates of grid (gridlog.h) */
     uint32_t grid_built_with;
     uint32_t faces_alive; /* count of face_alive */
     /* the stars committed in the current batch: per star its alive faces
@@ -1008,7 +1012,7 @@ static int commit(sim *s, const candidate *c)
         for (size_t i = 0; i < star->size; ++i) {
             uint32_t f = star->data[i];
             if (!s->face_alive[f]) {
-                facegrid_remove(&s->grid, f);
+                gridlog_remove(&s->grid_log, f);
                 continue;
             }
             if (next_changed == c->changed_count || changed[next_changed] != f) { /* never certified: a bug */
@@ -1031,9 +1035,7 @@ static int commit(sim *s, const candidate *c)
                     return 0;
                 }
             }
-            const int same_cells =
-                facegrid_contains(&s->grid, f) && facegrid_same_cells(&s->grid, old_box, old_box + 3, t.lo, t.hi);
-            if (!same_cells && facegrid_insert(&s->grid, f, t.lo, t.hi) != FACEGRID_OK) return sc->oom = 1, 0;
+            gridlog_move(&s->grid_log, f, old_box, old_box + 3, t.lo, t.hi);
             if (u32_push(&s->batch_faces, f)) return sc->oom = 1, 0;
             for (int a = 0; a < 3; ++a) {
                 star_box[a] = geom_fmin(star_box[a], t.lo[a]);
@@ -1462,7 +1464,10 @@ static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
             return;
         }
     s->batch_faces.size = s->batch_star_end.size = s->batch_star_box.size = 0;
-    for (size_t i = 0; i < count; ++i) {
+    /* the grid's updates go to the core that would otherwise wait */
+    gridlog_start(&s->grid_log, &s->grid, s->thread_count > 1);
+    int failed = 0;
+    for (size_t i = 0; i < count && !failed; ++i) {
         candidate *c = &batch[i];
         st->candidates++;
         st->attempts += c->attempts;
@@ -1472,16 +1477,15 @@ static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
             continue;
         }
         if (!commit(s, c)) {
-            if (s->verify_failed || s->serial.oom) {
-                *commits = -1;
-                return;
-            }
-            st->rejected[SIMPLIFY_REJECT_CONFLICT]++;
+            failed = s->verify_failed || s->serial.oom;
+            if (!failed) st->rejected[SIMPLIFY_REJECT_CONFLICT]++;
             continue;
         }
         st->commits++;
         (*commits)++;
     }
+    if (gridlog_finish(&s->grid_log)) failed = s->serial.oom = 1;
+    if (failed) *commits = -1;
     st->seconds_commit += lp_seconds() - t3;
 }
 
@@ -1541,6 +1545,7 @@ static void sim_free(sim *s)
     free(s->vertex_stamp);
     free(s->quadrics);
     facegrid_free(&s->grid);
+    gridlog_free(&s->grid_log);
     thin_map_free(&s->thin);
     free(s->special);
     registry_free(&s->reg);
@@ -1617,6 +1622,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     for (uint32_t t = 0; t < s->thread_count; ++t)
         if (scratch_init(&s->scratch[t], nv)) return -1;
     if (scratch_init(&s->serial, nv)) return -1;
+    if (gridlog_init(&s->grid_log, GRIDLOG_RING)) return -1;
     for (uint32_t f = 0; f < nf; ++f) {
         int64_t m = primitive_material[w->triangle_primitive[f]];
         s->face_material[f] = m < 0 ? -1 : (int32_t)(m > INT32_MAX ? INT32_MAX : m);
