@@ -44,7 +44,9 @@
 #define MAX_CANDIDATE_FACES 384
 #define MAX_PASSES 400
 #define MAX_THREADS 64
-#define CHANGED_RECORD 7 /* doubles per changed face in a thread's arena: bound, box lo xyz, box hi xyz */
+/* doubles per changed face in a thread's arena: bound, box lo xyz, box hi
+ * xyz, and the box before the collapse (lo xyz, hi xyz) */
+#define CHANGED_RECORD 13
 
 /* ---- growable scratch arrays (per thread; grown, never shrunk) ------------- */
 
@@ -103,6 +105,12 @@ typedef struct scratch {
     size_t nb_size, nb_cap;
     cert_tri *tris;
     size_t tris_cap;
+    /* the changed faces after the collapse being tried (changed's order),
+     * with normals and boxes: made once by flip_ok for the tests after it */
+    cert_tri *after;
+    size_t after_cap;
+    double *before_box; /* 6 per changed face: its box before (lo, hi), also from flip_ok */
+    size_t before_box_cap;
     uint32_t *vertex_seen; /* stamps, sized nv */
     keymap faces;          /* candidate faces seen -> index in cand_faces (NONE: over the cap) */
     keymap origs;          /* originals already in recheck */
@@ -173,9 +181,6 @@ typedef struct sim {
      * crossings, which concerns only these faces */
     u32vec batch_faces, batch_star_end;
     f64vec batch_star_box;
-    /* the changed faces' boxes before a commit (6 per face, sc->changed's
-     * order): a face whose cells stay the same keeps its grid entries */
-    f64vec commit_old_box;
     registry reg;
     cert_original orig;
     uint8_t *death;
@@ -462,7 +467,8 @@ static int link_ok(const sim *s, scratch *sc, uint32_t u, const neighbour *e)
 }
 
 /* The faces the collapse changes and keeps, in sc->changed: u's faces off the
- * edge (u, v) and, when v moves, v's (sc->faces_u and sc->faces_v gathered). */
+ * edge (u, v) and, when v moves, v's (sc->faces_u and sc->faces_v gathered);
+ * sc->after gets room for them. */
 static int gather_changed(const sim *s, scratch *sc, const collapse *cl)
 {
     sc->changed.size = 0;
@@ -471,19 +477,23 @@ static int gather_changed(const sim *s, scratch *sc, const collapse *cl)
     if (cl->moved)
         for (size_t i = 0; i < sc->faces_v.size; ++i)
             if (!face_has(s, sc->faces_v.data[i], cl->u) && u32_push(&sc->changed, sc->faces_v.data[i])) return -1;
-    return 0;
+    if (grow((void **)&sc->after, &sc->after_cap, sc->changed.size + 1, sizeof *sc->after)) return -1;
+    return grow((void **)&sc->before_box, &sc->before_box_cap, 6 * sc->changed.size + 1, sizeof *sc->before_box);
 }
 
-static int flip_ok(const sim *s, const scratch *sc, const collapse *cl)
+/* Also fills sc->after (complete when it returns 1). */
+static int flip_ok(const sim *s, scratch *sc, const collapse *cl)
 {
     for (size_t i = 0; i < sc->changed.size; ++i) {
         uint32_t f = sc->changed.data[i];
-        cert_tri before, after;
+        cert_tri before, *after = &sc->after[i];
         face_after(s, f, NULL, &before);
-        face_after(s, f, cl, &after);
-        if (after.degenerate) return 0;
+        memcpy(sc->before_box + 6 * i, before.lo, sizeof before.lo);
+        memcpy(sc->before_box + 6 * i + 3, before.hi, sizeof before.hi);
+        face_after(s, f, cl, after);
+        if (after->degenerate) return 0;
         if (before.degenerate) continue;
-        double c = before.n[0] * after.n[0] + before.n[1] * after.n[1] + before.n[2] * after.n[2];
+        double c = before.n[0] * after->n[0] + before.n[1] * after->n[1] + before.n[2] * after->n[2];
         if (!(c > s->flip_cos)) return 0;
     }
     return 1;
@@ -558,19 +568,24 @@ static int crosses_batch(const sim *s, scratch *sc, const collapse *cl)
     return 0;
 }
 
-/* 1 when a face of the new star would cross another face of the level or
- * another new face. One grid query over the star's box: its faces overlap,
- * and one query per face would meet the same neighbours several times. */
-static int star_crosses(const sim *s, scratch *sc, const collapse *cl)
+/* 1 when a face of the new star (sc->after, from flip_ok) would cross
+ * another face of the level or another new face. One grid query over the
+ * star's box: its faces overlap, and one query per face would meet the same
+ * neighbours several times. */
+static int star_crosses(const sim *s, const scratch *sc, const collapse *cl)
 {
-    double lo[3], hi[3];
-    long n = new_star(s, sc, cl, lo, hi);
-    if (n < 0) return sc->oom = 1, 1;
-    for (long i = 0; i < n; ++i)
-        for (long j = i + 1; j < n; ++j)
-            if (intersect_triangles((const double(*)[3])sc->tris[i].p, (const double(*)[3])sc->tris[j].p)) return 1;
+    const size_t n = sc->changed.size;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < n; ++i)
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = geom_fmin(lo[a], sc->after[i].lo[a]);
+            hi[a] = geom_fmax(hi[a], sc->after[i].hi[a]);
+        }
+    for (size_t i = 0; i < n; ++i)
+        for (size_t j = i + 1; j < n; ++j)
+            if (intersect_triangles((const double(*)[3])sc->after[i].p, (const double(*)[3])sc->after[j].p)) return 1;
     if (!n) return 0;
-    crossing_query q = {s, sc->tris, (size_t)n, cl};
+    crossing_query q = {s, sc->after, n, cl};
     return facegrid_query(&s->grid, lo, hi, crosses, &q);
 }
 
@@ -624,9 +639,10 @@ static uint32_t unit_faces(const sim *s, uint32_t unit, uint32_t out[REGISTRY_SL
     return n;
 }
 
-/* Certifies the collapse cl (sc->changed gathered). On success appends its
- * records to the thread's arena: per re-certified original (t, n, used[4]) +
- * bound, then per changed face its id + (bound, box lo xyz, box hi xyz).
+/* Certifies the collapse cl (sc->changed gathered, sc->after made by
+ * flip_ok). On success appends its records to the thread's arena: per
+ * re-certified original (t, n, used[4]) + bound, then per changed face its id
+ * + its CHANGED_RECORD (bound, box after, box before).
  * Returns 1 accepted, 0 rejected (reason set). */
 static int certify_collapse(const sim *s, scratch *sc, candidate *c, const collapse *cl)
 {
@@ -718,18 +734,20 @@ static int certify_collapse(const sim *s, scratch *sc, candidate *c, const colla
     uint32_t changed = 0;
     for (size_t i = 0; i < sc->changed.size; ++i) {
         uint32_t f = sc->changed.data[i];
-        cert_tri t;
-        face_after(s, f, cl, &t);
+        const cert_tri *t = &sc->after[i];
         double bound;
-        if (!cert_face(&s->orig, &t, eps, &bound)) {
+        if (!cert_face(&s->orig, t, eps, &bound)) {
             sc->out_u32.size = u32_start;
             sc->out_f64.size = f64_start;
             c->reason = SIMPLIFY_REJECT_FACE;
             return 0;
         }
         if (u32_push(&sc->out_u32, f) || f64_push(&sc->out_f64, bound)) return sc->oom = 1, 0;
-        for (int a = 0; a < 6; ++a) /* its box, for the commit's grid entry */
-            if (f64_push(&sc->out_f64, a < 3 ? t.lo[a] : t.hi[a - 3])) return sc->oom = 1, 0;
+        /* its boxes after and before, for the commit's grid update */
+        for (int a = 0; a < 6; ++a)
+            if (f64_push(&sc->out_f64, a < 3 ? t->lo[a] : t->hi[a - 3])) return sc->oom = 1, 0;
+        for (int a = 0; a < 6; ++a)
+            if (f64_push(&sc->out_f64, sc->before_box[6 * i + a])) return sc->oom = 1, 0;
         changed++;
     }
     c->u32_off = u32_start;
@@ -964,13 +982,6 @@ static int commit(sim *s, const candidate *c)
      * was tested for crossings (its star and the thin map are as they were) */
     if (c->thin && crosses_batch(s, sc, &cl)) return 0;
     if (sc->oom) return 0;
-    s->commit_old_box.size = 0;
-    for (size_t i = 0; i < sc->changed.size; ++i) {
-        cert_tri before;
-        face_box_after(s, sc->changed.data[i], NULL, &before);
-        for (int a = 0; a < 6; ++a)
-            if (f64_push(&s->commit_old_box, a < 3 ? before.lo[a] : before.hi[a - 3])) return sc->oom = 1, 0;
-    }
     /* which of v's wedges replaces u's in each face: read from the faces on
      * edge (u, v), one per side (two for a seam) */
     uint32_t map_class[2] = {NONE, NONE}, map_wedge[2] = {NONE, NONE}, mapped = 0;
@@ -1024,7 +1035,7 @@ static int commit(sim *s, const candidate *c)
             const double *record = changed_f64 + CHANGED_RECORD * (size_t)next_changed;
             memcpy(t.lo, record + 1, sizeof t.lo);
             memcpy(t.hi, record + 4, sizeof t.hi);
-            const double *old_box = s->commit_old_box.data + 6 * (size_t)next_changed;
+            const double *old_box = record + 7;
             next_changed++;
             if (s->verify) { /* the certified geometry is the committed one */
                 cert_tri now;
@@ -1539,7 +1550,6 @@ static void sim_free(sim *s)
     free(s->batch_faces.data);
     free(s->batch_star_end.data);
     free(s->batch_star_box.data);
-    free(s->commit_old_box.data);
     free(s->change_stamp);
     free(s->reject_stamp);
     free(s->vertex_stamp);
@@ -1561,6 +1571,8 @@ static void sim_free(sim *s)
         free(sc->changed.data);
         free(sc->nb);
         free(sc->tris);
+        free(sc->after);
+        free(sc->before_box);
         free(sc->vertex_seen);
         keymap_free(&sc->faces);
         keymap_free(&sc->origs);
