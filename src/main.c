@@ -194,7 +194,8 @@ static int output_name_ok(const char *out)
     return (n > 4 && strcasecmp(out + n - 4, ".glb") == 0) || (n > 5 && strcasecmp(out + n - 5, ".gltf") == 0);
 }
 
-/* The output must be a .glb or .gltf and, without --force, not the input. */
+/* The output must be a .glb or .gltf, not the input (without --force), and
+ * go to a folder that exists and may be written to. */
 static int output_usable(const cli *c, const char *in, const char *out)
 {
     if (!output_name_ok(out)) {
@@ -205,6 +206,8 @@ static int output_usable(const cli *c, const char *in, const char *out)
         fprintf(stderr, "lodpipe: %s: refusing to overwrite the input (use --force)\n", out);
         return LP_USAGE;
     }
+    lp_error err = {0, ""};
+    if (output_check_folder(out, &err)) return report(out, &err); /* now, not after the work */
     return LP_OK;
 }
 
@@ -454,6 +457,10 @@ static void json_stats(FILE *f, const simplify_stats *st)
 static int cmd_simplify(const cli *c)
 {
     const char *in = c->operands[0], *dir = c->operands[1];
+    char first_obj[4200];
+    snprintf(first_obj, sizeof first_obj, "%s/mesh0_level0.obj", dir);
+    lp_error err = {0, ""};
+    if (output_check_folder(first_obj, &err)) return report(first_obj, &err);
     scene s;
     int rc = load(c, in, &s);
     if (rc) return rc;

@@ -81,7 +81,7 @@ static int write_temp(const char *target, const uint8_t *bytes, size_t size, cha
     return LP_OK;
 }
 
-int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, lp_error *err)
+int output_check_folder(const char *main_path, lp_error *err)
 {
     char base[4096];
     folder_of(main_path, base, sizeof base);
@@ -89,10 +89,18 @@ int output_write_all(const char *main_path, const gltf_out_file *files, size_t c
     if (stat(base, &st) != 0 || !S_ISDIR(st.st_mode))
         return lp_fail(err, LP_IO, "output folder %s does not exist", base);
     if (access(base, W_OK) != 0) return lp_fail(err, LP_IO, "output folder %s is not writable", base);
+    return LP_OK;
+}
+
+int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, lp_error *err)
+{
+    char base[4096];
+    folder_of(main_path, base, sizeof base);
+    int rc = output_check_folder(main_path, err);
+    if (rc) return rc;
 
     char (*temps)[4200] = calloc(count ? count : 1, sizeof *temps);
     char (*targets)[4200] = calloc(count ? count : 1, sizeof *targets);
-    int rc = LP_OK;
     if (!temps || !targets) {
         rc = lp_fail(err, LP_IO, "out of memory");
         goto cleanup;

@@ -18,6 +18,12 @@
  * its folder, files[0] being the main file. */
 int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, lp_error *err);
 
+/* LP_OK when the folder of main_path exists and may be written to, else the
+ * error output_write_all would give (LP_IO). Callers check it before a long
+ * job too, so that a mistyped folder fails at once rather than at the end;
+ * output_write_all checks again. */
+int output_check_folder(const char *main_path, lp_error *err);
+
 /* 1 when a and b name the same existing file. */
 int output_same_file(const char *a, const char *b);
 

@@ -11,8 +11,9 @@
 // 3. Limits: a node chain deeper than the cap, a node cycle, uris that leave the input's folder (refused,
 //    accepted with --allow-external-uris), JSON nested absurdly deep, declared counts and lengths far beyond
 //    the file: a one-line error and exit 2, quickly (nothing is allocated from a declared size).
-// 4. Safe writes: overwrite refusal (exit 1, input unchanged; --force writes), a missing output folder, a
-//    read-only folder (as root, where permissions do not stop writes: lodpipe runs as user nobody through
+// 4. Safe writes: overwrite refusal (exit 1, input unchanged; --force writes), a missing output folder
+//    (reported before the input is read), a read-only folder (as root, where permissions do not stop
+//    writes: lodpipe runs as user nobody through
 //    setpriv; plus a folder of /proc, where nobody can create a file) and a full disk (ulimit -f, and a
 //    16 KiB tmpfs when this machine lets us mount one): exit 4, one line, no partial or temp file, an
 //    existing output left as it was.
@@ -323,6 +324,21 @@ test('safe writes: refusal, missing and read-only folders, full disk', { skip },
     const dir = tempDir(st);
     const r = runLodpipe([DUCK, '-o', path.join(dir, 'missing', 'out.glb')]);
     assert.deepEqual(refusalProblems(r, 4, 'missing', dir), [], describeRun(r));
+  });
+
+  await t.test('the output folder is checked before the input is read', (st) => {
+    const dir = tempDir(st);
+    const garbage = path.join(dir, 'garbage.glb');
+    fs.writeFileSync(garbage, 'not a glb at all');
+    for (const args of [[garbage, '-o', path.join(dir, 'missing', 'out.glb')],
+                        ['convert', garbage, path.join(dir, 'missing', 'out.gltf')],
+                        ['simplify', garbage, path.join(dir, 'missing')]]) {
+      const r = runLodpipe(args);
+      // an input error (exit 2) would mean the input was read first
+      const p = refusalProblems(r, 4, 'missing', dir, ['garbage.glb']);
+      if (!r.stderr.includes('output folder')) p.push('stderr does not say "output folder"');
+      assert.deepEqual(p, [], `${args.join(' ')}: ${describeRun(r)}`);
+    }
   });
 
   await t.test('an output "folder" that is a file -> exit 4', (st) => {
