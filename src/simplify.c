@@ -468,7 +468,7 @@ static int link_ok(const sim *s, scratch *sc, uint32_t u, const neighbour *e)
 
 /* The faces the collapse changes and keeps, in sc->changed: u's faces off the
  * edge (u, v) and, when v moves, v's (sc->faces_u and sc->faces_v gathered);
- * sc->after gets room for them. */
+ * sc->after and sc->before_box get room for them. */
 static int gather_changed(const sim *s, scratch *sc, const collapse *cl)
 {
     sc->changed.size = 0;
@@ -982,6 +982,18 @@ static int commit(sim *s, const candidate *c)
      * was tested for crossings (its star and the thin map are as they were) */
     if (c->thin && crosses_batch(s, sc, &cl)) return 0;
     if (sc->oom) return 0;
+    if (s->verify) /* the grid update's old boxes (from the evaluation) are the faces' boxes now */
+        for (size_t i = 0; i < sc->changed.size && i < c->changed_count; ++i) {
+            cert_tri now;
+            face_box_after(s, sc->changed.data[i], NULL, &now);
+            const double *old_box = changed_f64 + CHANGED_RECORD * i + 7;
+            if (memcmp(now.lo, old_box, sizeof now.lo) || memcmp(now.hi, old_box + 3, sizeof now.hi)) {
+                s->verify_failed = 1;
+                snprintf(s->verify_msg, sizeof s->verify_msg, "collapse %u -> %u: face %u's box moved since it was evaluated",
+                         u, v, sc->changed.data[i]);
+                return 0;
+            }
+        }
     /* which of v's wedges replaces u's in each face: read from the faces on
      * edge (u, v), one per side (two for a seam) */
     uint32_t map_class[2] = {NONE, NONE}, map_wedge[2] = {NONE, NONE}, mapped = 0;
