@@ -412,6 +412,15 @@ static void face_box_after(const sim *s, uint32_t f, const collapse *cl, cert_tr
     geom_triangle_box((const double(*)[3])t->p, t->lo, t->hi);
 }
 
+/* 1 when face f's box now is exactly [lo, hi] (the invariant checker's test
+ * that a commit sees the geometry its evaluation saw). */
+static int face_box_is(const sim *s, uint32_t f, const double lo[3], const double hi[3])
+{
+    cert_tri now;
+    face_box_after(s, f, NULL, &now);
+    return !memcmp(now.lo, lo, sizeof now.lo) && !memcmp(now.hi, hi, sizeof now.hi);
+}
+
 static int next_stamp(scratch *sc)
 {
     if (++sc->stamp == 0) return -1; /* 4 billion candidates: never in practice */
@@ -524,20 +533,25 @@ static int crosses(void *context, uint32_t g)
     return 0;
 }
 
+/* The box of faces[0 .. n) (their boxes set). */
+static void union_box(const cert_tri *faces, size_t n, double lo[3], double hi[3])
+{
+    for (int a = 0; a < 3; ++a) lo[a] = INFINITY, hi[a] = -INFINITY;
+    for (size_t i = 0; i < n; ++i)
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = geom_fmin(lo[a], faces[i].lo[a]);
+            hi[a] = geom_fmax(hi[a], faces[i].hi[a]);
+        }
+}
+
 /* The new star's faces into sc->tris (corners and boxes, no normals), and
  * their box. Returns the face count, or -1 when memory runs out. */
 static long new_star(const sim *s, scratch *sc, const collapse *cl, double lo[3], double hi[3])
 {
     const size_t n = sc->changed.size;
     if (grow((void **)&sc->tris, &sc->tris_cap, n + 1, sizeof *sc->tris)) return -1;
-    for (int a = 0; a < 3; ++a) lo[a] = INFINITY, hi[a] = -INFINITY;
-    for (size_t i = 0; i < n; ++i) {
-        face_box_after(s, sc->changed.data[i], cl, &sc->tris[i]);
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = geom_fmin(lo[a], sc->tris[i].lo[a]);
-            hi[a] = geom_fmax(hi[a], sc->tris[i].hi[a]);
-        }
-    }
+    for (size_t i = 0; i < n; ++i) face_box_after(s, sc->changed.data[i], cl, &sc->tris[i]);
+    union_box(sc->tris, n, lo, hi);
     return (long)n;
 }
 
@@ -575,12 +589,8 @@ static int crosses_batch(const sim *s, scratch *sc, const collapse *cl)
 static int star_crosses(const sim *s, const scratch *sc, const collapse *cl)
 {
     const size_t n = sc->changed.size;
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t i = 0; i < n; ++i)
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = geom_fmin(lo[a], sc->after[i].lo[a]);
-            hi[a] = geom_fmax(hi[a], sc->after[i].hi[a]);
-        }
+    double lo[3], hi[3];
+    union_box(sc->after, n, lo, hi);
     for (size_t i = 0; i < n; ++i)
         for (size_t j = i + 1; j < n; ++j)
             if (intersect_triangles((const double(*)[3])sc->after[i].p, (const double(*)[3])sc->after[j].p)) return 1;
@@ -984,10 +994,8 @@ static int commit(sim *s, const candidate *c)
     if (sc->oom) return 0;
     if (s->verify) /* the grid update's old boxes (from the evaluation) are the faces' boxes now */
         for (size_t i = 0; i < sc->changed.size && i < c->changed_count; ++i) {
-            cert_tri now;
-            face_box_after(s, sc->changed.data[i], NULL, &now);
             const double *old_box = changed_f64 + CHANGED_RECORD * i + 7;
-            if (memcmp(now.lo, old_box, sizeof now.lo) || memcmp(now.hi, old_box + 3, sizeof now.hi)) {
+            if (!face_box_is(s, sc->changed.data[i], old_box, old_box + 3)) {
                 s->verify_failed = 1;
                 snprintf(s->verify_msg, sizeof s->verify_msg, "collapse %u -> %u: face %u's box moved since it was evaluated",
                          u, v, sc->changed.data[i]);
@@ -1049,14 +1057,10 @@ static int commit(sim *s, const candidate *c)
             memcpy(t.hi, record + 4, sizeof t.hi);
             const double *old_box = record + 7;
             next_changed++;
-            if (s->verify) { /* the certified geometry is the committed one */
-                cert_tri now;
-                face_box_after(s, f, NULL, &now);
-                if (memcmp(now.lo, t.lo, sizeof t.lo) || memcmp(now.hi, t.hi, sizeof t.hi)) {
-                    s->verify_failed = 1;
-                    snprintf(s->verify_msg, sizeof s->verify_msg, "collapse %u -> %u: face %u is not where it was certified", u, v, f);
-                    return 0;
-                }
+            if (s->verify && !face_box_is(s, f, t.lo, t.hi)) { /* the certified geometry is the committed one */
+                s->verify_failed = 1;
+                snprintf(s->verify_msg, sizeof s->verify_msg, "collapse %u -> %u: face %u is not where it was certified", u, v, f);
+                return 0;
             }
             gridlog_move(&s->grid_log, f, old_box, old_box + 3, t.lo, t.hi);
             if (u32_push(&s->batch_faces, f)) return sc->oom = 1, 0;
