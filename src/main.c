@@ -452,6 +452,7 @@ static void json_stats(FILE *f, const simplify_stats *st)
             (unsigned long long)st->cluster_splits, st->clusters_whole);
     fprintf(f, ",\"seconds_select\":%.6f,\"seconds_certify\":%.6f,\"seconds_commit\":%.6f", st->seconds_select,
             st->seconds_certify, st->seconds_commit);
+    fprintf(f, ",\"removals\":%llu,\"seconds_removal\":%.6f", (unsigned long long)st->removals, st->seconds_removal);
 }
 
 static int cmd_simplify(const cli *c)

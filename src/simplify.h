@@ -20,6 +20,15 @@
  * order, so the result does not depend on the thread count. A rejected
  * candidate is retried only after its neighbourhood changes.
  *
+ * Vertex removal (Cohen et al.). When the passes have converged, each
+ * interior vertex whose ring has 4 to 8 corners, one primitive and no seam
+ * is removed with another triangulation of its hole than a collapse's fan
+ * (holefill.h): the cheapest few by distance to the removed vertex, each made
+ * in place, put through the same flip guard, crossing test and two-sided
+ * certificate, then kept or undone; serially, so deterministic. The passes
+ * then resume around what changed. No vertex moves and no attribute is made:
+ * the new faces take the ring vertices' wedges, so levels still nest.
+ *
  * Full-edge placement (options.full_edge_levels): on those levels, when the
  * half-edge collapse of an edge between two interior vertices of one wedge
  * class is not certified, it is tried once more with v moved to the
@@ -73,6 +82,11 @@ typedef struct simplify_stats {
      * batch's evaluation once it is complete, committing; and the level's
      * whole time */
     double seconds_select, seconds_certify, seconds_commit, seconds;
+    /* vertices removed with another triangulation of their hole than a
+     * collapse's fan, and the time of those sweeps (serial, at the end of
+     * each round of passes) */
+    uint64_t removals;
+    double seconds_removal;
 } simplify_stats;
 
 typedef struct simplify_level {
