@@ -234,7 +234,8 @@ static int gather_faces(const sim *s, uint32_t v, u32vec *out)
 static uint32_t faces_around(const sim *s, uint32_t v)
 {
     uint32_t n = 0;
-    for (uint32_t c = s->vertex_first[v]; c != NONE; c = s->corner_next[c]) n += s->face_alive[c / 3] && s->corner_vertex[c] == v;
+    for (uint32_t c = s->vertex_first[v]; c != NONE; c = s->corner_next[c])
+        n += s->face_alive[c / 3] && s->corner_vertex[c] == v;
     return n;
 }
 
@@ -1719,7 +1720,8 @@ static int removal_degrees(const sim *s, const removal *rm, const holefill *t)
 {
     for (uint32_t i = 0; i < rm->hole.n; ++i) {
         uint32_t gained = 0;
-        for (uint32_t k = 0; k + 2 < rm->hole.n; ++k) gained += t->tri[k][0] == i || t->tri[k][1] == i || t->tri[k][2] == i;
+        for (uint32_t k = 0; k + 2 < rm->hole.n; ++k)
+            gained += t->tri[k][0] == i || t->tri[k][1] == i || t->tri[k][2] == i;
         if (faces_around(s, rm->ring[i]) - 2 + gained < 3) return 0;
     }
     return 1;

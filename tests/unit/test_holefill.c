@@ -52,7 +52,8 @@ static int check_one(const holefill_problem *p, const holefill *h, uint32_t a, u
             if (is_polygon_edge(n, i, j)) {
                 CHECK(uses[i][j] == 1, "n %u: polygon edge (%u %u) in %u triangles", n, i, j, uses[i][j]);
             } else {
-                CHECK(uses[i][j] == 0 || uses[i][j] == 2, "n %u: diagonal (%u %u) in %u triangles", n, i, j, uses[i][j]);
+                CHECK(uses[i][j] == 0 || uses[i][j] == 2, "n %u: diagonal (%u %u) in %u triangles", n, i, j,
+                      uses[i][j]);
                 CHECK(uses[i][j] == 0 || p->allowed[i][j], "n %u: forbidden diagonal (%u %u) used", n, i, j);
             }
         }
