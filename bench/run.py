@@ -596,7 +596,9 @@ def report(results, args):
         w("")
         w("Exception: meshoptimizer's quality figures (bisections and own-error chains) were not measured again: "
           "`--reuse-peer` took them from %s (same inputs, same peer library and measure); lodpipe's quality "
-          "figures were measured in this run." % results["peer_reused_from"])
+          "figures were measured in %s." % (results["peer_reused_from"],
+                                            "the run they come from" if "quality" in results.get("reused", {})
+                                            else "this run"))
     w("")
     w("| | |")
     w("|---|---|")
