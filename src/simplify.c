@@ -994,20 +994,50 @@ static void prune_corner_list(sim *s, uint32_t v)
     }
 }
 
+/* u leaves the level: its quadric goes to the vertex that takes its place,
+ * and it dies at the level being made. */
+static void retire_vertex(sim *s, uint32_t u, uint32_t heir)
+{
+    quadric_add(&s->quadrics[heir], &s->quadrics[u]);
+    s->vertex_alive[u] = 0;
+    s->vertex_first[u] = NONE;
+    s->death[u] = (uint8_t)(s->level + 1);
+}
+
 static int verify_after_commit(sim *s, const candidate *c);
+
+/* A certified candidate's records in its thread's arena (certify_change
+ * wrote them): per re-certified unit (t, n, used[CERT_MAX_WITNESSES]) and
+ * its bound, then per changed face its id and CHANGED_RECORD doubles. */
+typedef struct records {
+    const uint32_t *units;      /* the unit of i is units[i * UNIT_RECORD] */
+    const double *unit_bounds;
+    const uint32_t *changed;    /* face ids */
+    const double *changed_f64;  /* CHANGED_RECORD per face */
+} records;
+
+#define UNIT_RECORD (2 + CERT_MAX_WITNESSES)
+
+static records records_of(const sim *s, const candidate *c)
+{
+    const scratch *res = &s->scratch[c->thread];
+    records r;
+    r.units = res->out_u32.data + c->u32_off;
+    r.unit_bounds = res->out_f64.data + c->f64_off;
+    r.changed = r.units + (size_t)c->recheck_count * UNIT_RECORD;
+    r.changed_f64 = r.unit_bounds + c->recheck_count;
+    return r;
+}
 
 /* The certified change c's records: its changed faces' bounds, and each
  * re-certified original's (or cluster's) registration and bound. */
 static void commit_records(sim *s, const candidate *c)
 {
-    const scratch *res = &s->scratch[c->thread];
-    const uint32_t *regs = res->out_u32.data + c->u32_off;
-    const double *reg_bounds = res->out_f64.data + c->f64_off;
-    const uint32_t *changed = regs + (size_t)c->recheck_count * (2 + CERT_MAX_WITNESSES);
-    const double *changed_f64 = reg_bounds + c->recheck_count;
-    for (uint32_t i = 0; i < c->changed_count; ++i) s->face_bound[changed[i]] = changed_f64[CHANGED_RECORD * (size_t)i];
+    const records rec = records_of(s, c);
+    for (uint32_t i = 0; i < c->changed_count; ++i)
+        s->face_bound[rec.changed[i]] = rec.changed_f64[CHANGED_RECORD * (size_t)i];
     for (uint32_t i = 0; i < c->recheck_count; ++i) {
-        const uint32_t *r = regs + (size_t)i * (2 + CERT_MAX_WITNESSES);
+        const uint32_t *r = rec.units + (size_t)i * UNIT_RECORD;
         if (r[0] >= s->nf) { /* a cluster: whole again (one face) or split (no face) */
             registry_clear_cluster(&s->reg, r[0] - s->nf);
             if (r[1]) registry_set_cluster(&s->reg, r[0] - s->nf, r[2]);
@@ -1017,7 +1047,7 @@ static void commit_records(sim *s, const candidate *c)
             registry_set(&s->reg, r[0], r + 2, r[1]);
             s->cluster_dirty[s->orig.cluster_of[r[0]]] = 1;
         }
-        s->unit_bound[r[0]] = reg_bounds[i];
+        s->unit_bound[r[0]] = rec.unit_bounds[i];
         s->unit_stamp[r[0]] = s->batch_stamp;
     }
 }
@@ -1028,13 +1058,11 @@ static int commit(sim *s, const candidate *c)
 {
     const uint32_t u = c->u, v = c->v;
     const collapse cl = {u, v, c->moved, {c->place[0], c->place[1], c->place[2]}};
-    const scratch *res = &s->scratch[c->thread];
-    const uint32_t *regs = res->out_u32.data + c->u32_off;
-    const double *reg_bounds = res->out_f64.data + c->f64_off;
-    const uint32_t *changed = regs + (size_t)c->recheck_count * (2 + CERT_MAX_WITNESSES);
-    const double *changed_f64 = reg_bounds + c->recheck_count;
+    const records rec = records_of(s, c);
+    const uint32_t *changed = rec.changed;
+    const double *changed_f64 = rec.changed_f64;
     for (uint32_t i = 0; i < c->recheck_count; ++i)
-        if (s->unit_stamp[regs[i * (2 + CERT_MAX_WITNESSES)]] == s->batch_stamp) return 0;
+        if (s->unit_stamp[rec.units[(size_t)i * UNIT_RECORD]] == s->batch_stamp) return 0;
 
     scratch *sc = &s->serial;
     if (gather_faces(s, u, &sc->faces_u)) return sc->oom = 1, 0;
@@ -1135,7 +1163,6 @@ static int commit(sim *s, const candidate *c)
             s->vertex_first[v] = cc;
         }
     }
-    s->vertex_first[u] = NONE;
     prune_corner_list(s, v);
     /* the far corners of the faces that died: their lists would otherwise
      * carry dead corners through every later walk of the neighbourhood */
@@ -1147,9 +1174,7 @@ static int commit(sim *s, const candidate *c)
             if (x != u && x != v) prune_corner_list(s, x);
         }
     }
-    quadric_add(&s->quadrics[v], &s->quadrics[u]);
-    s->vertex_alive[u] = 0;
-    s->death[u] = (uint8_t)(s->level + 1);
+    retire_vertex(s, u, v);
     stamp_changes(s, v);
     if (s->verify && verify_after_commit(s, c) != 0) return 0;
     return 1;
@@ -1215,14 +1240,11 @@ static int verify_state(sim *s, const uint32_t *units, size_t unit_count, const 
 
 static int verify_after_commit(sim *s, const candidate *c)
 {
-    const scratch *res = &s->scratch[c->thread];
-    const uint32_t *regs = res->out_u32.data + c->u32_off;
+    const records rec = records_of(s, c);
     u32vec units = {0}, faces = {0};
     int rc = 0;
-    for (uint32_t i = 0; i < c->recheck_count && !rc; ++i)
-        rc = u32_push(&units, regs[(size_t)i * (2 + CERT_MAX_WITNESSES)]);
-    const uint32_t *changed = regs + (size_t)c->recheck_count * (2 + CERT_MAX_WITNESSES);
-    for (uint32_t i = 0; i < c->changed_count && !rc; ++i) rc = u32_push(&faces, changed[i]);
+    for (uint32_t i = 0; i < c->recheck_count && !rc; ++i) rc = u32_push(&units, rec.units[(size_t)i * UNIT_RECORD]);
+    for (uint32_t i = 0; i < c->changed_count && !rc; ++i) rc = u32_push(&faces, rec.changed[i]);
     if (!rc) rc = verify_state(s, units.data, units.size, faces.data, faces.size);
     free(units.data);
     free(faces.data);
@@ -1598,7 +1620,7 @@ static double dot3(const double *x, const double *y) { return x[0] * y[0] + x[1]
  * (default settings): 11,489 -> 10,981 triangles at 1/16 %, 5,090 -> 4,876
  * at 1/8 %. Certifying up to 3 triangulations per vertex instead of 14 gave
  * 11,029 and 4,910, and all of them (up to 132) 44,847 instead of 44,849 at
- * 1/64 % and 4,878 at 1/8 % (the first two before removal_guard's test of
+ * 1/64 % and 4,878 at 1/8 % (the first two before removal_costs' test of
  * u). */
 #define REMOVE_TRIED 14 /* triangulations certified per vertex at most (all of a hexagon's) */
 
@@ -1608,6 +1630,7 @@ typedef struct removal {
     uint32_t face[HOLEFILL_MAX_CORNERS];
     uint32_t wedge[HOLEFILL_MAX_CORNERS]; /* x_i's wedge, the same in faces i - 1 and i */
     holefill_problem hole;                /* the ring polygon, hole.n corners */
+    uint8_t near[HOLEFILL_MAX_CORNERS][HOLEFILL_MAX_CORNERS][HOLEFILL_MAX_CORNERS]; /* u within eps of (i, j, k) */
 } removal;
 
 /* u's ring in face order, when u is an interior manifold vertex whose n (4 ..
@@ -1649,18 +1672,31 @@ static int removal_ring(const sim *s, scratch *sc, uint32_t u, removal *rm)
     return 1;
 }
 
-/* The hole's rules and costs: a diagonal x_i x_j may be made when it is no
+/* The hole's rules and costs, each triangle's decided once for all the
+ * triangulations that use it. A diagonal x_i x_j may be made when it is no
  * edge of the mesh yet (else the edge would have four faces) and does not
- * join two border vertices; a triangle costs its area times the squared
- * distance from u to its plane, so the cheapest triangulations keep the
- * surface closest to where u was. */
+ * join two border vertices. A triangle is forbidden when it is degenerate or
+ * turns from an old face it shares a corner with beyond the flip guard; else
+ * it costs its area times the squared distance from u to its plane, so the
+ * cheapest triangulations keep the surface closest to where u was. And near
+ * records whether u, a point of the original, is within eps of it: a
+ * triangulation is tried only when one of its faces is (else the originals
+ * around u would need faces farther out; measured on the bunny at 1/16 %:
+ * 10,981 triangles against 10,989 without this test, and 1.4 s spent on
+ * removals against 2.4 s). */
 static void removal_costs(const sim *s, removal *rm)
 {
     const uint32_t n = rm->hole.n;
     const uint8_t *kind = s->w->vertex_kind;
+    const int32_t material = s->face_material[rm->face[0]];
     double p[HOLEFILL_MAX_CORNERS][3], pu[3];
     vertex_position(s, rm->u, pu);
     for (uint32_t i = 0; i < n; ++i) vertex_position(s, rm->ring[i], p[i]);
+    cert_tri old[HOLEFILL_MAX_CORNERS];
+    for (uint32_t i = 0; i < n; ++i) triangle_of_vertices(s, rm->u, rm->ring[i], rm->ring[(i + 1) % n], material, &old[i]);
+    const float *original_u = s->w->positions + 3 * (size_t)rm->u;
+    const vec3d u = geom_vec3d(original_u[0], original_u[1], original_u[2]);
+    const double accept = s->eps * (1.0 - CERT_MARGIN);
     for (uint32_t i = 0; i < n; ++i)
         for (uint32_t j = i + 1; j < n; ++j)
             rm->hole.allowed[i][j] = !(kind[rm->ring[i]] == WELD_BORDER && kind[rm->ring[j]] == WELD_BORDER) &&
@@ -1668,50 +1704,41 @@ static void removal_costs(const sim *s, removal *rm)
     for (uint32_t i = 0; i < n; ++i)
         for (uint32_t j = i + 1; j < n; ++j)
             for (uint32_t k = j + 1; k < n; ++k) {
-                double e1[3], e2[3], c[3], d[3];
+                double *cost = &rm->hole.cost[i][j][k];
+                *cost = INFINITY;
+                rm->near[i][j][k] = 0;
+                cert_tri t;
+                triangle_of_vertices(s, rm->ring[i], rm->ring[j], rm->ring[k], material, &t);
+                if (t.degenerate) continue;
+                int turns = 0;
+                for (uint32_t f = 0; f < n; ++f) {
+                    const uint32_t next = (f + 1) % n;
+                    const int shares = i == f || i == next || j == f || j == next || k == f || k == next;
+                    turns |= shares && !old[f].degenerate && !(dot3(t.n, old[f].n) > s->flip_cos);
+                }
+                if (turns) continue;
+                vec3d c[3];
+                for (int a = 0; a < 3; ++a) c[a] = geom_vec3d_from_doubles(t.p[a]);
+                rm->near[i][j][k] = geom_point_triangle_distance2(&u, &c[0], &c[1], &c[2], NULL) <= accept * accept;
+                double e1[3], e2[3], x[3], d[3];
                 for (int a = 0; a < 3; ++a) {
                     e1[a] = p[j][a] - p[i][a];
                     e2[a] = p[k][a] - p[i][a];
                     d[a] = pu[a] - p[i][a];
                 }
-                c[0] = e1[1] * e2[2] - e1[2] * e2[1];
-                c[1] = e1[2] * e2[0] - e1[0] * e2[2];
-                c[2] = e1[0] * e2[1] - e1[1] * e2[0];
-                const double twice_area = sqrt(dot3(c, c)), h = dot3(c, d); /* h = twice_area * distance */
-                rm->hole.cost[i][j][k] = twice_area > 0.0 ? h * h / (2.0 * twice_area) : INFINITY;
+                x[0] = e1[1] * e2[2] - e1[2] * e2[1];
+                x[1] = e1[2] * e2[0] - e1[0] * e2[2];
+                x[2] = e1[0] * e2[1] - e1[1] * e2[0];
+                const double twice_area = sqrt(dot3(x, x)), h = dot3(x, d); /* h = twice_area * distance */
+                if (twice_area > 0.0) *cost = h * h / (2.0 * twice_area);
             }
 }
 
-/* The cheap tests of a removal, before its certificate: each new face is
- * well defined and turns from no old face it shares a corner with beyond
- * the flip guard; and u, a point of the original, is within eps of one of
- * the new faces (else the originals around it would need faces farther
- * out; measured on the bunny at 1/16 %: 10,981 triangles against 10,989
- * without this test, and 1.4 s spent on removals against 2.4 s). */
-static int removal_guard(const sim *s, const removal *rm, const holefill *t)
+/* 1 when u is within eps of one of t's faces (removal_costs). */
+static int removal_near(const removal *rm, const holefill *t)
 {
-    const int32_t material = s->face_material[rm->face[0]];
-    cert_tri old[HOLEFILL_MAX_CORNERS];
-    for (uint32_t i = 0; i < rm->hole.n; ++i)
-        triangle_of_vertices(s, rm->u, rm->ring[i], rm->ring[(i + 1) % rm->hole.n], material, &old[i]);
-    const float *pu = s->w->positions + 3 * (size_t)rm->u;
-    const vec3d u = geom_vec3d(pu[0], pu[1], pu[2]);
-    const double accept = s->eps * (1.0 - CERT_MARGIN);
     int near = 0;
-    for (uint32_t k = 0; k + 2 < rm->hole.n; ++k) {
-        cert_tri nt;
-        triangle_of_vertices(s, rm->ring[t->tri[k][0]], rm->ring[t->tri[k][1]], rm->ring[t->tri[k][2]], material, &nt);
-        if (nt.degenerate) return 0;
-        vec3d c[3];
-        for (int a = 0; a < 3; ++a) c[a] = geom_vec3d_from_doubles(nt.p[a]);
-        near |= geom_point_triangle_distance2(&u, &c[0], &c[1], &c[2], NULL) <= accept * accept;
-        for (uint32_t i = 0; i < rm->hole.n; ++i) {
-            const uint32_t next = (i + 1) % rm->hole.n;
-            int shares = 0;
-            for (int a = 0; a < 3; ++a) shares |= t->tri[k][a] == i || t->tri[k][a] == next;
-            if (shares && !old[i].degenerate && !(dot3(nt.n, old[i].n) > s->flip_cos)) return 0;
-        }
-    }
+    for (uint32_t k = 0; k + 2 < rm->hole.n; ++k) near |= rm->near[t->tri[k][0]][t->tri[k][1]][t->tri[k][2]];
     return near;
 }
 
@@ -1797,10 +1824,7 @@ static int removal_try(sim *s, const removal *rm, const holefill *t)
         for (int a = 0; a < 3; ++a) d2 += (p[a] - pu[a]) * (p[a] - pu[a]);
         if (d2 < best) best = d2, nearest = i;
     }
-    quadric_add(&s->quadrics[rm->ring[nearest]], &s->quadrics[rm->u]);
-    s->vertex_alive[rm->u] = 0;
-    s->vertex_first[rm->u] = NONE;
-    s->death[rm->u] = (uint8_t)(s->level + 1);
+    retire_vertex(s, rm->u, rm->ring[nearest]);
     for (uint32_t i = 0; i < n; ++i) {
         prune_corner_list(s, rm->ring[i]);
         stamp_changes(s, rm->ring[i]);
@@ -1841,7 +1865,7 @@ static long removal_pass(sim *s)
         const uint32_t count = holefill_all(&rm->hole, all);
         uint32_t tried = 0;
         for (uint32_t k = 0; k < count && tried < REMOVE_TRIED; ++k) {
-            if (!removal_degrees(s, rm, &all[k]) || !removal_guard(s, rm, &all[k])) continue;
+            if (!removal_degrees(s, rm, &all[k]) || !removal_near(rm, &all[k])) continue;
             tried++;
             const int r = removal_try(s, rm, &all[k]);
             if (r < 0) {
