@@ -455,11 +455,18 @@ static void json_stats(FILE *f, const simplify_stats *st)
     fprintf(f, ",\"removals\":%llu,\"seconds_removal\":%.6f", (unsigned long long)st->removals, st->seconds_removal);
 }
 
+/* The OBJ that `lodpipe simplify` writes for a mesh's level (0: the welded
+ * original). */
+static void level_obj_path(char *out, size_t size, const char *dir, uint32_t mesh, uint32_t level)
+{
+    snprintf(out, size, "%s/mesh%u_level%u.obj", dir, mesh, level);
+}
+
 static int cmd_simplify(const cli *c)
 {
     const char *in = c->operands[0], *dir = c->operands[1];
     char first_obj[4200];
-    snprintf(first_obj, sizeof first_obj, "%s/mesh0_level0.obj", dir);
+    level_obj_path(first_obj, sizeof first_obj, dir, 0, 0);
     lp_error err = {0, ""};
     if (output_check_folder(first_obj, &err)) return report(first_obj, &err);
     scene s;
@@ -495,10 +502,10 @@ static int cmd_simplify(const cli *c)
             obj_vertex_lines lines;
             rc = obj_vertex_lines_init(&lines, &w);
             if (!rc) {
-                snprintf(path, sizeof path, "%s/mesh%u_level0.obj", dir, m);
+                level_obj_path(path, sizeof path, dir, m, 0);
                 rc = write_obj(path, &w, &lines, NULL, w.triangle_vertices, w.triangle_count, NULL);
                 for (uint32_t k = 0; k < r.level_count && !rc; ++k) {
-                    snprintf(path, sizeof path, "%s/mesh%u_level%u.obj", dir, m, k + 1);
+                    level_obj_path(path, sizeof path, dir, m, k + 1);
                     rc = write_obj(path, &w, &lines, r.levels[k].positions, NULL, r.levels[k].triangle_count,
                                    r.levels[k].wedges);
                 }
