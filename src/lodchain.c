@@ -52,17 +52,33 @@ static int compare_order(const void *a, const void *b)
     return x->index < y->index ? -1 : x->index > y->index;
 }
 
-/* new_of_old for primitive p's vertex_count glTF vertices, by death level;
- * vertices no triangle uses die "at level 0" and go last. */
+/* new_of_old for primitive p's vertex_count glTF vertices, by the first
+ * level that no longer uses them (LOD0 = level 0 uses every wedge; vertices
+ * no triangle uses die "at level 0" and go last). Taken from the levels'
+ * faces, glTF vertex by glTF vertex: a position vertex can outlive one of its
+ * wedges (a wedge used only by triangles that weld dropped as degenerate, or
+ * a seam side whose faces are all gone), and such a vertex must not sit
+ * among the ones the level still uses. The levels' wedge sets nest (faces
+ * only die, and a changed face takes a wedge from a face that survives), so
+ * every level uses a prefix. */
 static int vertex_order(const weld_result *w, const simplify_result *r, uint32_t p, uint32_t vertex_count,
                         uint32_t *new_of_old)
 {
     order_key *keys = calloc((size_t)vertex_count + 1, sizeof *keys);
-    if (!keys) return -1;
+    uint8_t *death = malloc((size_t)w->wedge_count + 1);
+    if (!keys || !death) {
+        free(keys);
+        free(death);
+        return -1;
+    }
+    memset(death, 1, w->wedge_count);
+    for (uint32_t k = 0; k < r->level_count; ++k)
+        for (size_t c = 0; c < 3 * (size_t)r->levels[k].triangle_count; ++c)
+            death[r->levels[k].wedges[c]] = (uint8_t)(k + 2);
     for (uint32_t i = 0; i < vertex_count; ++i) keys[i].index = i;
     for (uint32_t x = 0; x < w->wedge_count; ++x)
-        if (w->wedge_primitive[x] == p && w->wedge_index[x] < vertex_count)
-            keys[w->wedge_index[x]].death = r->vertex_death[w->wedge_vertex[x]];
+        if (w->wedge_primitive[x] == p && w->wedge_index[x] < vertex_count) keys[w->wedge_index[x]].death = death[x];
+    free(death);
     qsort(keys, vertex_count, sizeof *keys, compare_order);
     for (uint32_t i = 0; i < vertex_count; ++i) new_of_old[keys[i].index] = i;
     free(keys);

@@ -186,7 +186,6 @@ typedef struct sim {
     f64vec batch_star_box;
     registry reg;
     cert_original orig;
-    uint8_t *death;
     /* where the original is thin (another sheet within 2 eps): the only
      * places the self-intersection test runs unless strict */
     thin_map thin;
@@ -994,14 +993,12 @@ static void prune_corner_list(sim *s, uint32_t v)
     }
 }
 
-/* u leaves the level: its quadric goes to the vertex that takes its place,
- * and it dies at the level being made. */
+/* u leaves the level: its quadric goes to the vertex that takes its place. */
 static void retire_vertex(sim *s, uint32_t u, uint32_t heir)
 {
     quadric_add(&s->quadrics[heir], &s->quadrics[u]);
     s->vertex_alive[u] = 0;
     s->vertex_first[u] = NONE;
-    s->death[u] = (uint8_t)(s->level + 1);
 }
 
 static int verify_after_commit(sim *s, const candidate *c);
@@ -2143,15 +2140,12 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
     candidate *batch = NULL;
     int rc = LP_OK;
     if (!s) return lp_fail(err, LP_INVALID, "out of memory");
-    out->vertex_death = malloc((size_t)w->vertex_count + 1);
     ranks = malloc(((size_t)w->vertex_count + 1) * sizeof *ranks);
     batch = calloc(BATCH_SIZE, sizeof *batch);
-    if (!out->vertex_death || !ranks || !batch || sim_init(s, w, primitive_material, options)) {
+    if (!ranks || !batch || sim_init(s, w, primitive_material, options)) {
         rc = lp_fail(err, LP_INVALID, "out of memory for a mesh of %u triangles", w->triangle_count);
         goto done;
     }
-    s->death = out->vertex_death;
-    memset(s->death, (int)(options->level_count + 1), w->vertex_count);
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (uint32_t v = 0; v < w->vertex_count; ++v)
         for (int k = 0; k < 3; ++k) {
@@ -2240,6 +2234,5 @@ void simplify_result_free(simplify_result *r)
         free(r->levels[k].primitive);
         free(r->levels[k].positions);
     }
-    free(r->vertex_death);
     memset(r, 0, sizeof *r);
 }

@@ -108,9 +108,6 @@ typedef struct simplify_result {
     double seconds_weld;  /* set by the caller that welded the mesh (0 otherwise) */
     uint32_t level_count;
     simplify_level levels[SIMPLIFY_MAX_LEVELS];
-    /* per weld position vertex: the first level it is absent from (1-based),
-     * or level_count + 1 if it survives every level */
-    uint8_t *vertex_death;
 } simplify_result;
 
 /* primitive_material[p]: the material of the mesh's primitive p (-1: none);

@@ -46,7 +46,7 @@ import {
 import {
   CHAIN_ASPECTS, DEFAULT_CAMERA, DEFAULT_LADDER, HAUSDORFF, analyzeChain, dropRuleProblems, edgeCensus, expectedSwitching,
   fileSetBytes, fmt, formatProblems, hausdorffAvailable, isTrianglePrim, matchLadder, maxColumnScale, newValidatorErrorMessages,
-  prefixProblems, primTriangles, rawPrimGeometry, relClose, worldMatrices,
+  deathOrderProblems, prefixProblems, primTriangles, rawPrimGeometry, relClose, worldMatrices,
 } from './lib/lodcheck.mjs';
 import { FIXTURE_DIAGONAL, TENT_H, buildFixture, setRecordedTriangles, writeFixture } from './lib/lodfixture.mjs';
 
@@ -248,6 +248,10 @@ test('self-test: the checkers pass a hand-made correct chain and catch planted d
 test('self-test: unit checks (prefix nesting, drop rule, ladder matching, world scale, edge census, validator diff)', () => {
   assert.deepEqual(prefixProblems([[0, 1, 2, 3], [0, 2, 1], [1, 0, 2]], 'p'), []);
   assert.match(prefixProblems([[0, 1, 2, 3], [0, 1], [0, 2]], 'p').join(), /level 2 uses vertex 2, beyond the prefix \[0, 1\]/);
+  assert.deepEqual(deathOrderProblems([[0, 1, 2, 3, 4], [0, 1, 2], [1, 0]], 5, 'p'), []);
+  assert.deepEqual(deathOrderProblems([[0, 1, 2], [0, 1]], 4, 'p'), [], 'a vertex no level uses goes last');
+  // vertex 1 is not used at level 1 but sits before vertex 2, which is: the max-index prefix holds, the order does not
+  assert.match(deathOrderProblems([[0, 1, 2, 3], [0, 2]], 4, 'p').join(), /vertex 2 \(used up to level 1\) comes after vertex 1 \(used up to level 0\)/);
   assert.deepEqual(dropRuleProblems(100, [90, 81]), []);
   assert.match(dropRuleProblems(100, [91], 'm').join(), /removing only 9 %/);
   assert.match(dropRuleProblems(100, [50, 0], 'm').join(), /0 triangles/);

@@ -594,41 +594,24 @@ export function prefixProblems(indexArrays, label) {
 
 /**
  * Death order of one primitive: lodpipe sorts a primitive's vertices by the level at which they die, last
- * to die first, a vertex dying with its (welded) position. d(v) = the last level (0 = the original) whose
- * triangles, in any primitive of the mesh, use v's exact position (-1: never). The order is right when d
- * never increases along the vertex buffer: then every level uses a prefix of it. `levelGeoms[k]` are the
- * geometries of all triangle primitives of level k; `g` is the primitive's level-0 geometry.
+ * to die first. d(v) = the last level (0 = the original) whose index array uses vertex v (-1: never). The
+ * order is right when d never increases along the vertex buffer: then every level uses a prefix of it, and
+ * no vertex a level does not use sits inside that prefix. `indexArrays[k]` is the primitive's index array
+ * at level k (levels share its vertex buffer, so index v is the same vertex at every level, wherever a
+ * placed level moved its position). Keyed by index, not by position: two vertices at one position (a UV
+ * seam, a copy only a degenerate triangle used) can die at different levels.
  */
-export function deathOrderProblems(levelGeoms, g, label) {
-  const death = new Map();
-  const key = (acc, v) => {
-    let k = '';
-    for (let c = 0; c < 3; c++) k += (c ? ',' : '') + String(acc.array[v * acc.size + c]); // -0 and 0 are one position
-    return k;
-  };
-  levelGeoms.forEach((geoms, k) => {
-    geoms.forEach((h, i) => {
-      // vertex v of a level is vertex v of level 0 (same vertex buffers): keyed by its level-0 position, so a
-      // level that placed vertices elsewhere (lod.placement = "optimal") is ordered by the same rule
-      const pos = (levelGeoms[0][i] || h).attrs.POSITION;
-      for (const v of primTriangles(h)) {
-        const q = key(pos, v);
-        if (!((death.get(q) ?? -1) >= k)) death.set(q, k);
-      }
-    });
+export function deathOrderProblems(indexArrays, vertexCount, label) {
+  const death = new Int32Array(vertexCount).fill(-1);
+  indexArrays.forEach((arr, k) => {
+    for (const v of arr) if (v < vertexCount) death[v] = k;
   });
-  const pos = g.attrs.POSITION;
   let inversions = 0;
   let first = '';
-  let prev = Infinity;
-  for (let v = 0; v < pos.count; v++) {
-    const d = death.get(key(pos, v)) ?? -1;
-    if (d > prev) {
-      if (inversions++ === 0) {
-        first = `vertex ${v} (position used up to level ${d}) comes after vertex ${v - 1} (used up to level ${prev}), so level ${d} needs vertex ${v} beyond the vertices still alive there`;
-      }
+  for (let v = 1; v < vertexCount; v++) {
+    if (death[v] > death[v - 1] && inversions++ === 0) {
+      first = `vertex ${v} (used up to level ${death[v]}) comes after vertex ${v - 1} (used up to level ${death[v - 1]}), so level ${death[v]} needs vertex ${v} beyond a vertex it does not use`;
     }
-    prev = d;
   }
   return inversions ? [`${label}: vertices not sorted by the level at which they die (${inversions} inversion(s)); first: ${first}`] : [];
 }
@@ -1120,7 +1103,8 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
     prims.forEach((op, p) => {
       if (!isTrianglePrim(op)) return;
       const why = reorderable.get(`${m},${p}`);
-      const arrays = [primTriangles(rawPrimGeometry(raw, m, p))];
+      const g0 = rawPrimGeometry(raw, m, p);
+      const arrays = [primTriangles(g0)];
       for (const M of lodMeshes) {
         const lp = j.meshes?.[M]?.primitives?.[p];
         if (lp?.indices === undefined || !j.accessors?.[lp.indices]) return;
@@ -1134,7 +1118,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
       density.push(`primitive ${p}: ${d.join(' ')}${why ? ` (not reordered: ${why})` : ''}`);
       if (why) return;
       problems.prefix.push(...prefixProblems(arrays, `${tag} primitive ${p}`));
-      problems.prefix.push(...deathOrderProblems(levelGeoms, levelGeoms[0][prims.slice(0, p).filter(isTrianglePrim).length], `${tag} primitive ${p}`));
+      problems.prefix.push(...deathOrderProblems(arrays, g0.attrs.POSITION.count, `${tag} primitive ${p}`));
     });
     notes.push(`${tag}: vertices used / prefix length per level: ${density.join('; ')}`);
 
