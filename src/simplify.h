@@ -15,7 +15,8 @@
  * by the vertex kinds of weld.h, the link condition, a degree floor, the
  * flip guard and a self-intersection test (no new face may cross another face
  * of the level: tested where the original is thin, thin.h, or everywhere in
- * strict mode, DESIGN.md §5); ordered by a position quadric; evaluated in batches whose
+ * strict mode, DESIGN.md §5); ordered by a position quadric, ranked again
+ * after each pass has evaluated the cheapest quarter; evaluated in batches whose
  * neighbourhoods are disjoint, certified in parallel and committed in a fixed
  * order, so the result does not depend on the thread count. A rejected
  * candidate is retried only after its neighbourhood changes.
