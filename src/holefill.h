@@ -18,8 +18,8 @@
 
 #include <stdint.h>
 
-#define HOLEFILL_MAX_CORNERS 8
-#define HOLEFILL_MAX 132 /* Catalan(6): the triangulations of an octagon */
+#define HOLEFILL_MAX_CORNERS 10
+#define HOLEFILL_MAX 1430 /* Catalan(8): the triangulations of a decagon */
 
 typedef struct holefill {
     double cost;

@@ -1640,7 +1640,11 @@ static double dot3(const double *x, const double *y) { return x[0] * y[0] + x[1]
  * at 1/8 %. Certifying up to 3 triangulations per vertex instead of 14 gave
  * 11,029 and 4,910, and all of them (up to 132) 44,847 instead of 44,849 at
  * 1/64 % and 4,878 at 1/8 % (the first two before removal_costs' test of
- * u). */
+ * u). Rings of up to 10 corners rather than 8 (a throwaway count had seen
+ * about 5 % of the swept vertices with larger rings): 24,075 -> 24,043 at
+ * 1/32 %, 4,876 -> 4,856 at 1/8 % before PASS_SHARE, and with it 23,977 ->
+ * 23,955, 4,765 -> 4,753; 0.17 % fewer over the 28 single levels of the
+ * quality tables, none with more. */
 #define REMOVE_TRIED 14 /* triangulations certified per vertex at most (all of a hexagon's) */
 
 typedef struct removal {
@@ -1655,7 +1659,8 @@ typedef struct removal {
 /* u's ring in face order, when u is an interior manifold vertex whose n (4 ..
  * HOLEFILL_MAX_CORNERS) faces form one closed fan of one primitive, with
  * distinct ring vertices each carrying one wedge in both its faces (larger
- * rings are rare where collapses are stuck, and are left). */
+ * rings are rarer where collapses are stuck, and each more corner triples
+ * the triangulations to list: they are left). */
 static int removal_ring(const sim *s, scratch *sc, uint32_t u, removal *rm)
 {
     if (!s->vertex_alive[u] || s->w->vertex_kind[u] != WELD_MANIFOLD) return 0;

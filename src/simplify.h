@@ -22,7 +22,7 @@
  * candidate is retried only after its neighbourhood changes.
  *
  * Vertex removal (Cohen et al.). When the passes have converged, each
- * interior vertex whose ring has 4 to 8 corners, one primitive and no seam
+ * interior vertex whose ring has 4 to 10 corners, one primitive and no seam
  * is removed with another triangulation of its hole than a collapse's fan
  * (holefill.h): the cheapest few by distance to the removed vertex, each made
  * in place, put through the same flip guard, crossing test and two-sided

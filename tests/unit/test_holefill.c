@@ -15,7 +15,9 @@
 #define RNG_SEED 0x686f6c6566696c6cULL
 #include "rng.h"
 
-static const uint32_t catalan[] = {1, 1, 2, 5, 14, 42, 132}; /* Catalan(n - 2) for n = 2 .. 8 */
+static const uint32_t catalan[] = {1, 1, 2, 5, 14, 42, 132, 429, 1430}; /* Catalan(n - 2) for n = 2 .. 10 */
+_Static_assert(sizeof catalan / sizeof catalan[0] == HOLEFILL_MAX_CORNERS - 1, "one Catalan number per polygon size");
+_Static_assert(HOLEFILL_MAX == 1430, "HOLEFILL_MAX is Catalan(HOLEFILL_MAX_CORNERS - 2)");
 
 static void open_problem(holefill_problem *p, uint32_t n)
 {
