@@ -44,7 +44,7 @@ import {
   corpusPath, describeRun, lodpipeBin, manifestInputs, readRaw, repoRoot, runHealthProblems, runLodpipe, successStderrProblems, tempDir, featureSkipReason, isExecutable,
 } from './lib/gltf.mjs';
 import {
-  CHAIN_ASPECTS, DEFAULT_CAMERA, DEFAULT_LADDER, HAUSDORFF, analyzeChain, dropRuleProblems, edgeCensus, expectedSwitching,
+  CHAIN_ASPECTS, DEFAULT_CAMERA, DEFAULT_LADDER, HAUSDORFF, analyzeChain, compareReorderedPrimitive, dropRuleProblems, edgeCensus, expectedSwitching,
   fileSetBytes, fmt, formatProblems, hausdorffAvailable, isTrianglePrim, matchLadder, maxColumnScale, newValidatorErrorMessages,
   deathOrderProblems, prefixProblems, primTriangles, rawPrimGeometry, relClose, worldMatrices,
 } from './lib/lodcheck.mjs';
@@ -248,6 +248,11 @@ test('self-test: the checkers pass a hand-made correct chain and catch planted d
 test('self-test: unit checks (prefix nesting, drop rule, ladder matching, world scale, edge census, validator diff)', () => {
   assert.deepEqual(prefixProblems([[0, 1, 2, 3], [0, 2, 1], [1, 0, 2]], 'p'), []);
   assert.match(prefixProblems([[0, 1, 2, 3], [0, 1], [0, 2]], 'p').join(), /level 2 uses vertex 2, beyond the prefix \[0, 1\]/);
+  // the reorder check: vertices 1 and 3 are equal on every stream, so swapping them is no change
+  const geom = (pos, indices) => ({ mode: 4, indices, targets: [], attrs: { POSITION: { array: Float32Array.from(pos), size: 3, count: pos.length / 3 } } });
+  const quad = [0, 0, 0, 1, 0, 0, 1, 1, 0, 1, 0, 0];
+  assert.deepEqual(compareReorderedPrimitive(geom(quad, [0, 1, 2, 0, 2, 3]), geom(quad, [0, 3, 2, 0, 2, 1]), 'p').problems, []);
+  assert.match(compareReorderedPrimitive(geom(quad, [0, 1, 2, 0, 2, 3]), geom(quad, [0, 2, 1, 0, 2, 3]), 'p').problems.join(), /1 input triangles missing, 1 output triangles not in the input/);
   assert.deepEqual(deathOrderProblems([[0, 1, 2, 3, 4], [0, 1, 2], [1, 0]], 5, 'p'), []);
   assert.deepEqual(deathOrderProblems([[0, 1, 2], [0, 1]], 4, 'p'), [], 'a vertex no level uses goes last');
   // vertex 1 is not used at level 1 but sits before vertex 2, which is: the max-index prefix holds, the order does not

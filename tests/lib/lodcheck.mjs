@@ -346,7 +346,7 @@ function streams(g) {
  * Match the output primitive's vertices to the input's: every output vertex must equal a distinct input
  * vertex on every attribute and morph target (exactly; within MESHOPT_FILTER_ULP for streams whose input
  * went through a meshopt filter). Then the triangles must be the same multiset of oriented triangles once
- * mapped through that correspondence. Returns { problems, perm (out -> in), notes }.
+ * mapped through that correspondence (input vertices equal on every stream count as one). Returns { problems, perm (out -> in), notes }.
  */
 export function compareReorderedPrimitive(gin, gout, label, { tolerant = new Set(), notes = [] } = {}) {
   const problems = [];
@@ -419,6 +419,15 @@ export function compareReorderedPrimitive(gin, gout, label, { tolerant = new Set
     return { problems, perm };
   }
   if (tolerated) notes.push(`${label}: ${tolerated} meshopt-filtered components matched within ${MESHOPT_FILTER_ULP} ULP`);
+  // input vertices equal on every stream cannot be told apart, and the reorder may swap them (one copy used by a
+  // level, the other not): a triangle corner counts as the first input vertex equal to it
+  const same = new Int32Array(nin);
+  const firstEqual = new Map();
+  for (let v = 0; v < nin; v++) {
+    const k = sin.map((st) => Array.from(st.acc.array.subarray(v * st.acc.size, (v + 1) * st.acc.size), numKey).join(',')).join(';');
+    if (!firstEqual.has(k)) firstEqual.set(k, v);
+    same[v] = firstEqual.get(k);
+  }
   // triangles as oriented index triples of the INPUT numbering
   const canonKey = (a, b, c) => {
     if (a <= b && a <= c) return `${a},${b},${c}`;
@@ -429,13 +438,13 @@ export function compareReorderedPrimitive(gin, gout, label, { tolerant = new Set
   const tout = primTriangles(gout);
   const count = new Map();
   for (let t = 0; t < tin.length; t += 3) {
-    const k = canonKey(tin[t], tin[t + 1], tin[t + 2]);
+    const k = canonKey(same[tin[t]], same[tin[t + 1]], same[tin[t + 2]]);
     count.set(k, (count.get(k) || 0) + 1);
   }
   let extra = 0;
   let firstExtra = null;
   for (let t = 0; t < tout.length; t += 3) {
-    const k = canonKey(perm[tout[t]], perm[tout[t + 1]], perm[tout[t + 2]]);
+    const k = canonKey(same[perm[tout[t]]], same[perm[tout[t + 1]]], same[perm[tout[t + 2]]]);
     const n = count.get(k) || 0;
     if (n === 0) {
       if (extra++ === 0) firstExtra = `output [${tout[t]},${tout[t + 1]},${tout[t + 2]}] = input vertices [${k}] (orientation kept)`;
