@@ -1511,8 +1511,8 @@ static int grid_rebuild(sim *s)
 
 /* One sweep over the cheapest share of the candidates (PASS_SHARE) in cost
  * order, in batches of independent ones; a candidate that is not independent
- * of its batch, or beyond the share, waits for the next pass. Returns the number of commits (+ waiting candidates in *waiting), or
- * -1 on failure. */
+ * of its batch, or beyond the share, waits for the next pass. Returns the
+ * number of commits (+ waiting candidates in *waiting), or -1 on failure. */
 static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
 {
     simplify_stats *st = s->stats;
