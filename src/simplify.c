@@ -51,8 +51,10 @@
  * single levels of the quality tables (bunny, fandisk, rocker-arm, igea at
  * 1/64 .. 1 %): 0.7 % fewer triangles in geometric mean, the bunny 1.7 %
  * (1/16 %: 10,981 -> 10,813; 1/8 %: 4,876 -> 4,765); a quarter did better
- * than a half (0.4 %) or 0.35 (0.5 %); the 1.1M chain's time did not grow
- * (13.3 -> 12.6 s, medians of two interleaved pairs). */
+ * than a half (0.4 %) or 0.35 (0.5 %). The price is selection: more passes
+ * each rank every candidate again; on the 1.1M chain, six interleaved pairs
+ * against the full passes gave 15.4-15.7 -> 16.4-16.9 s (selection 3.0 -> 4.0
+ * s, certificate 6.1 -> 5.7 s), two earlier pairs 13.3 -> 12.6 s. */
 #define PASS_SHARE 4
 #define PASS_MIN 16
 /* A backstop, not a stopping rule: every pass commits or rejects at least one
