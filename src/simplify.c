@@ -1715,9 +1715,9 @@ static void removal_costs(const sim *s, removal *rm)
     const uint32_t n = rm->hole.n;
     const uint8_t *kind = s->w->vertex_kind;
     const int32_t material = s->face_material[rm->face[0]];
-    double p[HOLEFILL_MAX_CORNERS][3], pu[3];
+    double pu[3];
     vertex_position(s, rm->u, pu);
-    for (uint32_t i = 0; i < n; ++i) vertex_position(s, rm->ring[i], p[i]);
+    const vec3d at_u = geom_vec3d_from_doubles(pu);
     cert_tri old[HOLEFILL_MAX_CORNERS];
     for (uint32_t i = 0; i < n; ++i) triangle_of_vertices(s, rm->u, rm->ring[i], rm->ring[(i + 1) % n], material, &old[i]);
     const float *original_u = s->w->positions + 3 * (size_t)rm->u;
@@ -1746,16 +1746,9 @@ static void removal_costs(const sim *s, removal *rm)
                 vec3d c[3];
                 for (int a = 0; a < 3; ++a) c[a] = geom_vec3d_from_doubles(t.p[a]);
                 rm->near[i][j][k] = geom_point_triangle_distance2(&u, &c[0], &c[1], &c[2], NULL) <= accept * accept;
-                double e1[3], e2[3], x[3], d[3];
-                for (int a = 0; a < 3; ++a) {
-                    e1[a] = p[j][a] - p[i][a];
-                    e2[a] = p[k][a] - p[i][a];
-                    d[a] = pu[a] - p[i][a];
-                }
-                x[0] = e1[1] * e2[2] - e1[2] * e2[1];
-                x[1] = e1[2] * e2[0] - e1[0] * e2[2];
-                x[2] = e1[0] * e2[1] - e1[1] * e2[0];
-                const double twice_area = sqrt(dot3(x, x)), h = dot3(x, d); /* h = twice_area * distance */
+                const vec3d x = geom_cross(geom_sub(c[1], c[0]), geom_sub(c[2], c[0]));
+                const double twice_area = geom_length(x);
+                const double h = geom_dot(x, geom_sub(at_u, c[0])); /* h = twice_area * distance */
                 if (twice_area > 0.0) *cost = h * h / (2.0 * twice_area);
             }
 }
