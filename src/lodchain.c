@@ -52,33 +52,38 @@ static int compare_order(const void *a, const void *b)
     return x->index < y->index ? -1 : x->index > y->index;
 }
 
-/* new_of_old for primitive p's vertex_count glTF vertices, by the first
- * level that no longer uses them (LOD0 = level 0 uses every wedge; vertices
- * no triangle uses die "at level 0" and go last). Taken from the levels'
- * faces, glTF vertex by glTF vertex: a position vertex can outlive one of its
- * wedges (a wedge used only by triangles that weld dropped as degenerate, or
- * a seam side whose faces are all gone), and such a vertex must not sit
- * among the ones the level still uses. The levels' wedge sets nest (faces
- * only die, and a changed face takes a wedge from a face that survives), so
- * every level uses a prefix. */
-static int vertex_order(const weld_result *w, const simplify_result *r, uint32_t p, uint32_t vertex_count,
-                        uint32_t *new_of_old)
+/* Per wedge of the mesh, the first level that no longer uses it: LOD0 =
+ * level 0 uses every wedge, so 1 at least. Taken from the levels' faces,
+ * wedge by wedge (a glTF vertex is one wedge): a position vertex can outlive
+ * one of its wedges (a wedge used only by triangles that weld dropped as
+ * degenerate, or a seam side whose faces are all gone), and such a vertex
+ * must not sit among the ones the level still uses. The levels' wedge sets
+ * nest (faces only die, and a changed face takes a wedge from a face that
+ * survives), so ordering by it gives every level a prefix. NULL when out of
+ * memory. */
+static uint8_t *wedge_deaths(const weld_result *w, const simplify_result *r)
 {
-    order_key *keys = calloc((size_t)vertex_count + 1, sizeof *keys);
     uint8_t *death = malloc((size_t)w->wedge_count + 1);
-    if (!keys || !death) {
-        free(keys);
-        free(death);
-        return -1;
-    }
+    if (!death) return NULL;
     memset(death, 1, w->wedge_count);
     for (uint32_t k = 0; k < r->level_count; ++k)
         for (size_t c = 0; c < 3 * (size_t)r->levels[k].triangle_count; ++c)
             death[r->levels[k].wedges[c]] = (uint8_t)(k + 2);
+    return death;
+}
+
+/* new_of_old for primitive p's vertex_count glTF vertices, last to die
+ * first (wedge_deaths); vertices no triangle uses die "at level 0" and go
+ * last. */
+static int vertex_order(const weld_result *w, const uint8_t *wedge_death, uint32_t p, uint32_t vertex_count,
+                        uint32_t *new_of_old)
+{
+    order_key *keys = calloc((size_t)vertex_count + 1, sizeof *keys);
+    if (!keys) return -1;
     for (uint32_t i = 0; i < vertex_count; ++i) keys[i].index = i;
     for (uint32_t x = 0; x < w->wedge_count; ++x)
-        if (w->wedge_primitive[x] == p && w->wedge_index[x] < vertex_count) keys[w->wedge_index[x]].death = death[x];
-    free(death);
+        if (w->wedge_primitive[x] == p && w->wedge_index[x] < vertex_count)
+            keys[w->wedge_index[x]].death = wedge_death[x];
     qsort(keys, vertex_count, sizeof *keys, compare_order);
     for (uint32_t i = 0; i < vertex_count; ++i) new_of_old[keys[i].index] = i;
     free(keys);
@@ -704,13 +709,14 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
     out->level_count = 0;
     if (rc) return rc;
     uint32_t **new_of_old = calloc(mesh->primitive_count + 1, sizeof *new_of_old);
-    rc = new_of_old ? LP_OK : lp_fail(err, LP_INVALID, "out of memory");
+    uint8_t *wedge_death = wedge_deaths(w, r);
+    rc = new_of_old && wedge_death ? LP_OK : lp_fail(err, LP_INVALID, "out of memory");
     for (uint32_t p = 0; p < mesh->primitive_count && !rc; ++p) {
         const scene_primitive *pr = &mesh->primitives[p];
         if (pr->skipped || pr->mode < 4 || pr->triangle_count == 0) continue;
         uint32_t *order = malloc(((size_t)pr->vertex_count + 1) * sizeof *order);
         new_of_old[p] = malloc(((size_t)pr->vertex_count + 1) * sizeof *new_of_old[p]);
-        if (!order || !new_of_old[p] || vertex_order(w, r, p, pr->vertex_count, order))
+        if (!order || !new_of_old[p] || vertex_order(w, wedge_death, p, pr->vertex_count, order))
             rc = lp_fail(err, LP_INVALID, "out of memory");
         int reordered = 0;
         if (!rc && o->keep_vertex_order)
@@ -720,6 +726,7 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
         if (!rc && !reordered && !o->keep_vertex_order) out->primitives_not_reordered++;
         free(order);
     }
+    free(wedge_death);
     for (uint32_t k = 0; k < level_count && !rc; ++k) {
         const simplify_level *level = &r->levels[kept[k]];
         int64_t lod = write_level_mesh(s, m, w, level, k + 1, new_of_old, err);
