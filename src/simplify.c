@@ -9,7 +9,8 @@
  * (a) the changed faces (certify.h).
  *
  * The main loop, per level and pass:
- *   collect_candidates -> sort -> while unprocessed: reserve a batch
+ *   collect_candidates (parallel) -> rank the cheapest share -> while
+ *   unprocessed: reserve a batch
  *   (serial; the workers evaluate each candidate as soon as it is reserved)
  *   -> batch_close (the rest of the evaluation, parallel) -> process_batch
  *   (commits, serial, in order; a helper thread applies their face-grid
@@ -1352,15 +1353,31 @@ static void sort_ranked(ranked *a, size_t n)
     sort_ranked_depth(a, n, depth);
 }
 
-/* Vertices worth evaluating, cheapest first: alive, not locked, not rejected
- * since their neighbourhood last changed; the cost is that of the cheapest
- * neighbour (an ordering hint; evaluation applies the rules). */
-static size_t collect_candidates(sim *s, ranked *out)
+/* Below this many movable vertices one thread collects alone (a thread's
+ * start costs more than it saves). */
+#define COLLECT_PARALLEL_MIN 16384
+
+/* The candidates among movable[begin, end): alive, not locked, not rejected
+ * since their neighbourhood last changed, each with the cost of its cheapest
+ * neighbour (an ordering hint; evaluation applies the rules). The alive
+ * vertices are compacted to the front of the range, in order, and the
+ * candidates written to out[begin ..], unsorted. Reads the mesh and writes
+ * only the range's own entries (movable, out, reject_stamp of its vertices),
+ * so disjoint ranges may be collected at once. */
+typedef struct collect_range {
+    sim *s;
+    ranked *out;
+    uint32_t begin, end;
+    uint32_t kept, count; /* results: alive vertices, candidates */
+} collect_range;
+
+static void *collect_range_run(void *p)
 {
-    size_t n = 0;
-    uint32_t kept = 0;
+    collect_range *r = p;
+    sim *s = r->s;
+    uint32_t kept = r->begin, n = r->begin;
     double place[3];
-    for (uint32_t i = 0; i < s->movable_count; ++i) {
+    for (uint32_t i = r->begin; i < r->end; ++i) {
         const uint32_t u = s->movable[i];
         if (!s->vertex_alive[u]) continue;
         s->movable[kept++] = u;
@@ -1377,14 +1394,92 @@ static size_t collect_candidates(sim *s, ranked *out)
             if (e < best) best = e;
         }
         if (best < INFINITY) {
-            out[n].cost = best;
-            out[n].u = u;
+            r->out[n].cost = best;
+            r->out[n].u = u;
             n++;
         }
     }
+    r->kept = kept - r->begin;
+    r->count = n - r->begin;
+    return NULL;
+}
+
+/* Every candidate of the level into out (unsorted; the count is returned),
+ * the movable list compacted to its alive vertices. The movable vertices are
+ * cut into one contiguous range per thread and the ranges' results joined in
+ * range order, so movable and the set of candidates are what one thread
+ * would give; ranking them (rank_cheapest) then fixes their order. */
+static size_t collect_candidates(sim *s, ranked *out)
+{
+    collect_range ranges[MAX_THREADS];
+    pthread_t threads[MAX_THREADS];
+    uint32_t parts = s->movable_count >= COLLECT_PARALLEL_MIN ? s->thread_count : 1;
+    for (uint32_t t = 0; t < parts; ++t) {
+        ranges[t].s = s;
+        ranges[t].out = out;
+        ranges[t].begin = (uint32_t)((uint64_t)s->movable_count * t / parts);
+        ranges[t].end = (uint32_t)((uint64_t)s->movable_count * (t + 1) / parts);
+    }
+    uint32_t started = 1;
+    for (; started < parts; ++started)
+        if (pthread_create(&threads[started], NULL, collect_range_run, &ranges[started]) != 0) break;
+    /* a thread that could not be started: its ranges are collected here */
+    for (uint32_t t = 0; t < parts; ++t)
+        if (t == 0 || t >= started) collect_range_run(&ranges[t]);
+    for (uint32_t t = 1; t < started; ++t) pthread_join(threads[t], NULL);
+    uint32_t kept = 0;
+    size_t n = 0;
+    for (uint32_t t = 0; t < parts; ++t) {
+        memmove(s->movable + kept, s->movable + ranges[t].begin, (size_t)ranges[t].kept * sizeof *s->movable);
+        memmove(out + n, out + ranges[t].begin, (size_t)ranges[t].count * sizeof *out);
+        kept += ranges[t].kept;
+        n += ranges[t].count;
+    }
     s->movable_count = kept;
-    sort_ranked(out, n);
     return n;
+}
+
+/* Puts the `share` cheapest of a[0 .. n) in a[0 .. share), in order (the
+ * rest after them, in no order): a pass takes only those. ranked_before is a
+ * total order (vertices are distinct), so the result does not depend on the
+ * order a[] came in. Quickselect narrows to the side that holds the share's
+ * end; a short part, or any part past a depth limit, is sorted whole. */
+static void rank_cheapest(ranked *a, size_t n, size_t share)
+{
+    if (share > n) share = n;
+    ranked *part = a;
+    size_t m = n, k = share; /* the k cheapest of part[0 .. m) go first */
+    unsigned depth = 0;
+    for (size_t x = n; x > 1; x >>= 1) depth += 2;
+    while (k > 0 && k < m) {
+        if (m <= 16 || depth-- == 0) {
+            sort_ranked(part, m);
+            break;
+        }
+        const ranked *x = &part[0], *y = &part[m / 2], *z = &part[m - 1];
+        const ranked *median = ranked_before(x, y) ? (ranked_before(y, z) ? y : ranked_before(x, z) ? z : x)
+                                                   : (ranked_before(x, z) ? x : ranked_before(y, z) ? z : y);
+        const ranked pivot = *median;
+        size_t i = 0, j = m - 1;
+        for (;;) {
+            while (ranked_before(&part[i], &pivot)) i++;
+            while (ranked_before(&pivot, &part[j])) j--;
+            if (i >= j) break;
+            swap_ranked(&part[i], &part[j]);
+            i++;
+            j--;
+        }
+        /* part[0 .. j] <= pivot <= part[j + 1 .. m - 1] */
+        const size_t left = j + 1;
+        if (k <= left) {
+            m = left;
+        } else {
+            part += left;
+            m -= left;
+            k -= left;
+        }
+    }
+    sort_ranked(a, share);
 }
 
 /* Reserves a candidate's neighbourhood in the current batch. Its evaluation
@@ -1521,14 +1616,17 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
     double t0 = lp_seconds();
     if (merge_clusters(s)) return -1;
     size_t n = collect_candidates(s, ranks);
-    st->seconds_select += lp_seconds() - t0;
     long commits = 0;
     *waiting = 0;
     if (n > PASS_MIN) {
         size_t share = n / PASS_SHARE > PASS_MIN ? n / PASS_SHARE : PASS_MIN;
         *waiting += n - share;
+        rank_cheapest(ranks, n, share);
         n = share;
+    } else {
+        sort_ranked(ranks, n);
     }
+    st->seconds_select += lp_seconds() - t0;
     batch_run run;
     for (size_t i = 0; i < n;) {
         if (++s->batch_stamp == 0) return -1;
