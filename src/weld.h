@@ -77,10 +77,12 @@
  * per-material certification) decides whether it may be cut.
  *
  * Memory and time: every output array is one allocation (sized after a
- * counting pass); scratch is a few arrays and three open-addressing hash
- * tables (positions, wedge classes, edges), each sized once for a load of at
- * most 1/2. No per-element allocation. O(n) expected time in the number of
- * corners plus attribute components. The result depends on nothing but the
+ * counting pass); scratch is a few arrays and two open-addressing hash
+ * tables (positions, wedge classes), each sized once for a load of at most
+ * 1/2; edges are paired per vertex from the vertex-triangle lists (a sort of
+ * each vertex's edges, d log d for a vertex of degree d). No per-element
+ * allocation. O(n log d) expected time in the number of corners plus
+ * attribute components. The result depends on nothing but the
  * input (fixed hash functions, fixed iteration order), not on addresses,
  * threads or earlier calls. No global state: threads may weld different
  * meshes at once (the scene is only read). */
