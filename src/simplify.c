@@ -1303,6 +1303,27 @@ static void heap_sift_ranked(ranked *a, size_t root, size_t n)
     }
 }
 
+/* Hoare partition of a[0 .. n) (n > 16) around the median of its first,
+ * middle and last entries: returns left with a[0 .. left) <= pivot <=
+ * a[left .. n). */
+static size_t partition_ranked(ranked *a, size_t n)
+{
+    const ranked *x = &a[0], *y = &a[n / 2], *z = &a[n - 1];
+    const ranked *median = ranked_before(x, y) ? (ranked_before(y, z) ? y : ranked_before(x, z) ? z : x)
+                                               : (ranked_before(x, z) ? x : ranked_before(y, z) ? z : y);
+    const ranked pivot = *median;
+    size_t i = 0, j = n - 1;
+    for (;;) {
+        while (ranked_before(&a[i], &pivot)) i++;
+        while (ranked_before(&pivot, &a[j])) j--;
+        if (i >= j) break;
+        swap_ranked(&a[i], &a[j]);
+        i++;
+        j--;
+    }
+    return j + 1;
+}
+
 /* Introsort in place: quicksort (median of three, Hoare partition), heapsort
  * past a depth limit, insertion sort for short runs. glibc's qsort allocates
  * a copy of the array (16 bytes a vertex) while it merges, at the moment the
@@ -1318,21 +1339,8 @@ static void sort_ranked_depth(ranked *a, size_t n, unsigned depth)
             }
             return;
         }
-        const ranked *x = &a[0], *y = &a[n / 2], *z = &a[n - 1];
-        const ranked *median = ranked_before(x, y) ? (ranked_before(y, z) ? y : ranked_before(x, z) ? z : x)
-                                                   : (ranked_before(x, z) ? x : ranked_before(y, z) ? z : y);
-        const ranked pivot = *median;
-        size_t i = 0, j = n - 1;
-        for (;;) {
-            while (ranked_before(&a[i], &pivot)) i++;
-            while (ranked_before(&pivot, &a[j])) j--;
-            if (i >= j) break;
-            swap_ranked(&a[i], &a[j]);
-            i++;
-            j--;
-        }
-        /* a[0..j] <= pivot <= a[j+1..n-1]; recurse into the shorter side */
-        size_t left = j + 1;
+        /* recurse into the shorter side */
+        const size_t left = partition_ranked(a, n);
         if (left < n - left) {
             sort_ranked_depth(a, left, depth);
             a += left;
@@ -1456,21 +1464,7 @@ static void rank_cheapest(ranked *a, size_t n, size_t share)
             sort_ranked(part, m);
             break;
         }
-        const ranked *x = &part[0], *y = &part[m / 2], *z = &part[m - 1];
-        const ranked *median = ranked_before(x, y) ? (ranked_before(y, z) ? y : ranked_before(x, z) ? z : x)
-                                                   : (ranked_before(x, z) ? x : ranked_before(y, z) ? z : y);
-        const ranked pivot = *median;
-        size_t i = 0, j = m - 1;
-        for (;;) {
-            while (ranked_before(&part[i], &pivot)) i++;
-            while (ranked_before(&pivot, &part[j])) j--;
-            if (i >= j) break;
-            swap_ranked(&part[i], &part[j]);
-            i++;
-            j--;
-        }
-        /* part[0 .. j] <= pivot <= part[j + 1 .. m - 1] */
-        const size_t left = j + 1;
+        const size_t left = partition_ranked(part, m);
         if (k <= left) {
             m = left;
         } else {
