@@ -1611,15 +1611,10 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
     if (merge_clusters(s)) return -1;
     size_t n = collect_candidates(s, ranks);
     long commits = 0;
-    *waiting = 0;
-    if (n > PASS_MIN) {
-        size_t share = n / PASS_SHARE > PASS_MIN ? n / PASS_SHARE : PASS_MIN;
-        *waiting += n - share;
-        rank_cheapest(ranks, n, share);
-        n = share;
-    } else {
-        sort_ranked(ranks, n);
-    }
+    const size_t share = n <= PASS_MIN ? n : n / PASS_SHARE > PASS_MIN ? n / PASS_SHARE : PASS_MIN;
+    *waiting = n - share;
+    rank_cheapest(ranks, n, share);
+    n = share;
     st->seconds_select += lp_seconds() - t0;
     batch_run run;
     for (size_t i = 0; i < n;) {

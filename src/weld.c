@@ -86,7 +86,6 @@ typedef struct weld_work {
     uint32_t *prov_key;      /* provisional position -> 3 float keys */
     uint32_t prov_count;
     uint32_t *prov_final;    /* provisional position -> final vertex id or NONE */
-
 } weld_work;
 
 static void work_free(weld_work *k)
@@ -626,8 +625,10 @@ static int compare_u64(const void *a, const void *b)
 static int count_dangling(weld_work *k, weld_result *out, lp_error *err)
 {
     const scene_mesh *m = k->mesh;
-    size_t count = 0, cap = 0;
-    uint64_t *segments = NULL; /* (lower << 32 | higher) of each segment to look up */
+    size_t count = 0;
+    /* (lower << 32 | higher) of each segment to look up: at most one per dropped triangle */
+    uint64_t *segments = alloc_array(out->stats.degenerate_triangles, sizeof *segments);
+    if (!segments) return out_of_memory(k, err);
     for (uint32_t p = 0; p < m->primitive_count; ++p) {
         const scene_primitive *pr = &m->primitives[p];
         if (!is_welded(pr)) continue;
@@ -642,22 +643,14 @@ static int count_dangling(weld_work *k, weld_result *out, lp_error *err)
                 continue;
             }
             if (a == b) continue;
-            if (count == cap) {
-                cap = cap ? 2 * cap : 64;
-                uint64_t *grown = realloc(segments, cap * sizeof *segments);
-                if (!grown) {
-                    free(segments);
-                    return out_of_memory(k, err);
-                }
-                segments = grown;
-            }
             segments[count++] = a < b ? (uint64_t)a << 32 | b : (uint64_t)b << 32 | a;
         }
     }
     if (count) qsort(segments, count, sizeof *segments, compare_u64);
     for (size_t i = 0, j; i < count; i = j) {
         for (j = i + 1; j < count && segments[j] == segments[i]; ++j) {}
-        if (!is_kept_edge(out, (uint32_t)(segments[i] >> 32), (uint32_t)segments[i])) out->stats.degenerate_dangling += (uint32_t)(j - i);
+        if (!is_kept_edge(out, (uint32_t)(segments[i] >> 32), (uint32_t)segments[i]))
+            out->stats.degenerate_dangling += (uint32_t)(j - i);
     }
     free(segments);
     return LP_OK;
