@@ -470,6 +470,36 @@ static int piece_a(const cert_original *o, face_filter *filter, const cert_tri *
     return large && overlay_now(o, filter, p, f, accept, bound);
 }
 
+/* F's corners, when they are original vertices where the original has them
+ * (half-edge collapses never move one), are points of O: every point of F is
+ * within r of its nearest corner, r being the radius of F's minimal
+ * enclosing ball (the point farthest from every corner is the circumcentre
+ * of a non-obtuse triangle; in an obtuse one it lies on the longest side,
+ * within half of it from an end). Each corner lies on every original
+ * triangle around it, so when one of them is a witness for F at each
+ * corner, F is within r of witnesses: with r <= eps, certified with bound
+ * r. No distance is computed; while faces are small against eps (most of a
+ * level's collapses) this decides almost every face. */
+static int corners_hold(const cert_original *o, face_filter *filter, const cert_tri *f, const vec3d p[3],
+                        double accept, double *bound)
+{
+    vec3d c;
+    double r;
+    geom_triangle_enclosing_ball(&p[0], &p[1], &p[2], &c, &r);
+    if (!(r <= accept)) return 0;
+    for (int k = 0; k < 3; ++k) {
+        const uint32_t v = f->vertex[k];
+        const vec3d at = vertex_of(o, v);
+        if (at.x != p[k].x || at.y != p[k].y || at.z != p[k].z) return 0; /* a placed vertex */
+        int witnessed = 0;
+        for (uint32_t i = o->vertex_offsets[v]; i < o->vertex_offsets[v + 1] && !witnessed; ++i)
+            witnessed = witness_ok(filter, o->vertex_triangles[i]);
+        if (!witnessed) return 0;
+    }
+    *bound = r;
+    return 1;
+}
+
 int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bound)
 {
     *bound = 0.0;
@@ -478,6 +508,7 @@ int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bou
     vec3d p[3];
     for (int k = 0; k < 3; ++k) p[k] = geom_vec3d_from_doubles(f->p[k]);
     const double accept = eps * (1.0 - CERT_MARGIN);
+    if (corners_hold(o, &filter, f, p, accept, bound)) return 1;
     for (int k = 0; k < 3; ++k) {
         uint32_t v = f->vertex[k];
         for (uint32_t i = o->vertex_offsets[v]; i < o->vertex_offsets[v + 1]; ++i) {
@@ -704,6 +735,9 @@ static double cluster_within(const cert_original *o, uint32_t cluster, const cer
     for (int k = 0; k < 3; ++k) tri[k] = geom_vec3d_from_doubles(f->p[k]);
     const double d = sqrt(geom_point_triangle_distance2(&centre, &tri[0], &tri[1], &tri[2], NULL));
     if (d + c->radius <= accept) return d + c->radius;
+    /* every vertex is within radius of the centre, so at least d - radius
+     * from F (1-Lipschitz): none within accept, when that exceeds it */
+    if (d - c->radius > accept) return INFINITY;
     /* convexity: every triangle is within accept when its corners are */
     double worst2 = 0.0;
     for (uint32_t i = o->cluster_vertex_start[cluster]; i < o->cluster_vertex_start[cluster + 1]; ++i) {

@@ -100,9 +100,12 @@ typedef struct cert_tri {
 void cert_face_normal(cert_tri *f);
 
 /* (a): 1 when F is certified within eps of O, with *bound the largest
- * accepted value; 0 otherwise. A degenerate F is never certified. The
- * original triangles around F's corner vertices are tried as whole-face
- * witnesses first (cheap, and usually enough at fine levels), then the BVH. */
+ * accepted value; 0 otherwise. A degenerate F is never certified. First,
+ * when F's corners are original vertices at their place and each lies on a
+ * witness, the radius of F's minimal enclosing ball (no distance computed:
+ * every point of F is that close to a corner); then the original triangles
+ * around F's corner vertices as whole-face witnesses (cheap, and usually
+ * enough at fine levels), then the BVH. */
 int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bound);
 
 /* (b): 1 when original triangle t is certified within eps of the union of

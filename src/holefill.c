@@ -2,7 +2,6 @@
 #include "holefill.h"
 
 #include <math.h>
-#include <stdlib.h>
 #include <string.h>
 
 typedef struct span {
@@ -51,14 +50,29 @@ static void fill(walk *w, const holefill *partial, uint32_t done, const span *to
     }
 }
 
-static int cheaper_first(const void *a, const void *b)
+/* Cheaper first; on equal cost, by triangle list: a total order, since two
+ * triangulations with the same list are the same (listed once). */
+static int cheaper_first(const holefill *x, const holefill *y)
 {
-    const holefill *x = a, *y = b;
-    if (x->cost != y->cost) return x->cost < y->cost ? -1 : 1;
-    return memcmp(x->tri, y->tri, sizeof x->tri);
+    if (x->cost != y->cost) return x->cost < y->cost;
+    return memcmp(x->tri, y->tri, sizeof x->tri) < 0;
 }
 
-uint32_t holefill_all(const holefill_problem *p, holefill out[HOLEFILL_MAX])
+static void sift_down(holefill *h, uint32_t i, uint32_t n)
+{
+    for (;;) {
+        uint32_t best = i, l = 2 * i + 1, r = l + 1;
+        if (l < n && cheaper_first(&h[l], &h[best])) best = l;
+        if (r < n && cheaper_first(&h[r], &h[best])) best = r;
+        if (best == i) return;
+        const holefill t = h[i];
+        h[i] = h[best];
+        h[best] = t;
+        i = best;
+    }
+}
+
+uint32_t holefill_heap(const holefill_problem *p, holefill out[HOLEFILL_MAX])
 {
     if (p->n < 3 || p->n > HOLEFILL_MAX_CORNERS) return 0;
     walk w = {p, out, 0};
@@ -66,6 +80,29 @@ uint32_t holefill_all(const holefill_problem *p, holefill out[HOLEFILL_MAX])
     memset(&start, 0, sizeof start);
     const span whole = {0, (uint8_t)(p->n - 1)};
     fill(&w, &start, 0, &whole, 1);
-    qsort(out, w.count, sizeof *out, cheaper_first);
+    for (uint32_t i = w.count / 2; i-- > 0;) sift_down(out, i, w.count);
     return w.count;
+}
+
+const holefill *holefill_pop(holefill *heap, uint32_t *count)
+{
+    const uint32_t n = --*count;
+    const holefill t = heap[0];
+    heap[0] = heap[n];
+    heap[n] = t;
+    sift_down(heap, 0, n);
+    return &heap[n];
+}
+
+uint32_t holefill_all(const holefill_problem *p, holefill out[HOLEFILL_MAX])
+{
+    const uint32_t count = holefill_heap(p, out);
+    /* each pop puts the cheapest left at the end: dearest first, reversed */
+    for (uint32_t left = count; left > 1;) holefill_pop(out, &left);
+    for (uint32_t i = 0, j = count ? count - 1 : 0; i < j; ++i, --j) {
+        const holefill t = out[i];
+        out[i] = out[j];
+        out[j] = t;
+    }
+    return count;
 }

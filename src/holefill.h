@@ -39,4 +39,13 @@ typedef struct holefill_problem {
  * many; 0 when n is out of range or none is allowed. */
 uint32_t holefill_all(const holefill_problem *p, holefill out[HOLEFILL_MAX]);
 
+/* The same triangulations, in a heap: holefill_pop then hands them out in
+ * holefill_all's order, one at a time, for callers that stop after the
+ * first few (a decagon has 1,430, and sorting them all was 8 % of a whole
+ * simplification's instructions). holefill_heap returns the count;
+ * holefill_pop takes the next (*count > 0), decrements *count and returns
+ * where it now lies (valid until the next pop). */
+uint32_t holefill_heap(const holefill_problem *p, holefill out[HOLEFILL_MAX]);
+const holefill *holefill_pop(holefill *heap, uint32_t *count);
+
 #endif

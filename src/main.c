@@ -296,7 +296,7 @@ static simplify_options simplify_options_of(const cli *c)
     uint32_t full_edge = 0;
     if (c->config.lod.placement == 1) full_edge = c->config.lod.optimal_levels ? c->config.lod.optimal_levels & every : every;
     simplify_options opt = {c->levels, (uint32_t)c->config.lod.level_count, (uint32_t)c->config.run.threads,
-                            c->config.lod.flip_cos, 0, c->config.lod.strict_intersections, full_edge};
+                            c->config.lod.flip_cos, 0, c->config.lod.strict_intersections, full_edge, 0};
     const char *verify = getenv("LODPIPE_VERIFY");
     opt.verify = verify && strcmp(verify, "0") != 0;
     return opt;
@@ -453,6 +453,8 @@ static void json_stats(FILE *f, const simplify_stats *st)
     fprintf(f, ",\"seconds_select\":%.6f,\"seconds_certify\":%.6f,\"seconds_commit\":%.6f", st->seconds_select,
             st->seconds_certify, st->seconds_commit);
     fprintf(f, ",\"removals\":%llu,\"seconds_removal\":%.6f", (unsigned long long)st->removals, st->seconds_removal);
+    fprintf(f, ",\"regions\":{\"rounds\":%u,\"commits\":%llu,\"deferred\":%llu,\"seconds\":%.6f}", st->rounds,
+            (unsigned long long)st->region_commits, (unsigned long long)st->deferred, st->seconds_regions);
 }
 
 /* The OBJ that `lodpipe simplify` writes for a mesh's level (0: the welded

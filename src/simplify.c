@@ -65,6 +65,10 @@
  * short). */
 #define MAX_PASSES 100000
 #define MAX_THREADS 64
+/* an evaluation's outcome besides SIMPLIFY_REJECT_*: in a region, the
+ * candidate needs what another region may change; it waits for a round
+ * with other boundaries, or for the global passes */
+#define REJECT_DEFERRED SIMPLIFY_REJECT_COUNT
 /* doubles per changed face in a thread's arena: bound, box lo xyz, box hi
  * xyz, and the box before the collapse (lo xyz, hi xyz) */
 #define CHANGED_RECORD 13
@@ -120,7 +124,23 @@ typedef struct neighbour {
     double cost;
 } neighbour;
 
+/* Stars committed (the alive faces of each, and its box): per star i its
+ * faces are faces[end[i - 1] .. end[i] - 1] and its box box[6 i ..], lo then
+ * hi. A later candidate's new faces were not tested against these faces
+ * where they are now: the batch's commits re-test them (crosses_stars). */
+typedef struct star_list {
+    u32vec faces, end;
+    f64vec box;
+} star_list;
+
+struct region;
+
 typedef struct scratch {
+    /* the region being run (region_round), NULL in the global passes: an
+     * evaluation then reads and writes only what that region owns this
+     * round, and sets deferred when it would need anything else */
+    const struct region *region;
+    int deferred;
     u32vec faces_u, faces_v, nbr_v, ring, cand_faces, recheck, changed;
     neighbour *nb;
     size_t nb_size, nb_cap;
@@ -141,6 +161,34 @@ typedef struct scratch {
     f64vec out_f64;
     int oom;
 } scratch;
+
+#define REGION_SHARED UINT32_MAX
+
+/* The faces a region owns, in a grid of their own for its crossing tests
+ * (numbered locally: their index in faces), kept current by its commits
+ * and built again with larger cells when half of them have died. */
+typedef struct own_grid {
+    facegrid grid;
+    u32vec faces; /* local number -> face */
+    keymap local; /* face -> local number */
+    uint32_t alive, built;
+} own_grid;
+
+/* One region of a round (region_round): the alive vertices in one cell of
+ * the round's grid, simplified by one thread with evaluations and commits
+ * in turn, while other threads run other regions. What it changes is its
+ * own: its clock (the stamps its commits write start at the round's), its
+ * grid of faces, its statistics and the count of faces that died. */
+typedef struct region {
+    uint32_t id;
+    uint32_t begin, end;     /* its vertices: spatial[begin .. end) */
+    uint32_t clock;
+    own_grid *own;           /* its thread's, while it runs */
+    const facegrid *shared;  /* the round's grid of the faces no region owns */
+    simplify_stats stats;
+    uint32_t faces_died;
+    int failed; /* out of memory, or a broken invariant (verify) */
+} region;
 
 typedef struct candidate {
     uint32_t u, v;      /* v == NONE: rejected */
@@ -173,7 +221,7 @@ typedef struct sim {
      * unit nf + c; its certified bound and the batch that last changed it */
     double *unit_bound;
     uint32_t *unit_stamp;
-    uint8_t *cluster_dirty; /* one of its originals was re-registered: try it whole again */
+    atomic_uchar *cluster_dirty; /* one of its originals was re-registered: try it whole again */
     uint32_t *vertex_first;
     uint8_t *vertex_alive;
     /* the alive vertices that are not locked, ascending: the passes late in
@@ -198,12 +246,22 @@ typedef struct sim {
     gridlog grid_log; /* the commit's updates of grid (gridlog.h) */
     uint32_t grid_built_with;
     uint32_t faces_alive; /* count of face_alive */
-    /* the stars committed in the current batch: per star its alive faces
-     * (batch_faces[batch_star_end[i - 1] .. batch_star_end[i] - 1]) and their
-     * box (batch_star_box[6 i ..], lo then hi), for the commit's re-test of
+    /* the stars committed in the current batch, for the commit's re-test of
      * crossings, which concerns only these faces */
-    u32vec batch_faces, batch_star_end;
-    f64vec batch_star_box;
+    star_list batch_stars;
+    /* The region phase (region_round). Per vertex its region this round
+     * and whether it is interior (its 2-ball lies in its region); per face
+     * its owner: the region that holds all three of its vertices, else
+     * REGION_SHARED (no region changes it this round). spatial holds the
+     * alive vertices (spatial_count of them), grouped by region; region_cell
+     * is the first round's cell size, for region_alive0 alive vertices. */
+    uint32_t *region_of, *face_owner, *spatial;
+    uint32_t *queued; /* per vertex: the version of its latest entry in its region's queue */
+    uint32_t spatial_count, region_alive0;
+    double region_cell;
+    uint8_t *interior;
+    uint32_t region_vertices; /* vertices per region: 0 for REGION_SIZE */
+    uint32_t rounds;          /* region rounds run so far (all levels) */
     registry reg;
     cert_original orig;
     /* where the original is thin (another sheet within 2 eps): the only
@@ -221,6 +279,21 @@ typedef struct sim {
     char verify_msg[256];
     int verify_failed;
 } sim;
+
+/* In a region (sc->region), the faces it may read: its own, and shared
+ * ones (no region changes those this round). In the global passes, all. */
+static int face_readable(const sim *s, const scratch *sc, uint32_t f)
+{
+    if (!sc->region) return 1;
+    const uint32_t owner = s->face_owner[f];
+    return owner == sc->region->id || owner == REGION_SHARED;
+}
+
+/* The faces it may also register originals to or change: its own. */
+static int face_owned(const sim *s, const scratch *sc, uint32_t f)
+{
+    return !sc->region || s->face_owner[f] == sc->region->id;
+}
 
 static void vertex_position(const sim *s, uint32_t v, double out[3])
 {
@@ -458,9 +531,16 @@ static int next_stamp(scratch *sc)
     return 0;
 }
 
+/* Adds face f to the candidate faces of (b) (once). In a region, a face it
+ * does not own defers the candidate (sc->deferred): a registration to it
+ * would change that face's list. */
 static int add_candidate_face(const sim *s, scratch *sc, uint32_t f, uint32_t u, uint32_t v)
 {
-    if (!s->face_alive[f] || keymap_find(&sc->faces, f)) return 0;
+    if (!s->face_alive[f] || keymap_find(&sc->faces, f)) return 0; /* (a dead face has no owner this round) */
+    if (!face_owned(s, sc, f)) {
+        sc->deferred = 1;
+        return 0;
+    }
     if (face_has(s, f, u) && face_has(s, f, v)) return 0; /* removed by the collapse */
     const int room = sc->cand_faces.size < MAX_CANDIDATE_FACES;
     if (keymap_insert(&sc->faces, f, room ? (uint32_t)sc->cand_faces.size : NONE) < 0) return -1;
@@ -538,17 +618,22 @@ static int flip_ok(const sim *s, scratch *sc, const collapse *cl)
 
 typedef struct crossing_query {
     const sim *s;
+    const scratch *sc;     /* in a region: other regions' faces are skipped */
     const cert_tri *faces; /* the new faces */
     size_t count;
     const collapse *cl; /* NULL: a change made in place, whose faces are skip */
     const uint32_t *skip;
     size_t skip_count;
+    double lo[3], hi[3]; /* the box of the new faces */
 } crossing_query;
 
 static int crosses(void *context, uint32_t g)
 {
     const crossing_query *q = context;
     const sim *s = q->s;
+    /* another region's face lies in that region's cell, apart from every
+     * face this region makes (region_partition): it cannot cross them */
+    if (!face_readable(s, q->sc, g)) return 0;
     if (!s->face_alive[g]) return 0;
     /* the changed faces themselves are tested apart */
     if (q->cl && (face_has(s, g, q->cl->u) || (q->cl->moved && face_has(s, g, q->cl->v)))) return 0;
@@ -557,6 +642,10 @@ static int crosses(void *context, uint32_t g)
     double other[3][3], lo[3], hi[3];
     for (int k = 0; k < 3; ++k) vertex_position(s, s->corner_vertex[3 * g + k], other[k]);
     geom_triangle_box((const double(*)[3])other, lo, hi);
+    /* | rather than ||: one predictable branch (most grid neighbours are apart) */
+    if ((lo[0] > q->hi[0]) | (hi[0] < q->lo[0]) | (lo[1] > q->hi[1]) | (hi[1] < q->lo[1]) | (lo[2] > q->hi[2]) |
+        (hi[2] < q->lo[2]))
+        return 0;
     for (size_t i = 0; i < q->count; ++i) {
         const cert_tri *f = &q->faces[i];
         int apart = 0; /* boxes first: most grid neighbours are not close */
@@ -564,6 +653,18 @@ static int crosses(void *context, uint32_t g)
         if (!apart && intersect_triangles((const double(*)[3])f->p, (const double(*)[3])other)) return 1;
     }
     return 0;
+}
+
+/* crosses for a region's own grid, whose faces are numbered locally. */
+typedef struct local_query {
+    const crossing_query *q;
+    const uint32_t *faces;
+} local_query;
+
+static int crosses_local(void *context, uint32_t local)
+{
+    const local_query *lq = context;
+    return crosses((void *)lq->q, lq->faces[local]);
 }
 
 /* The box of faces[0 .. n) (their boxes set). */
@@ -588,31 +689,37 @@ static long new_star(const sim *s, scratch *sc, const collapse *cl, double lo[3]
     return (long)n;
 }
 
+/* 1 when a new face of q would cross a face of the stars in l whose box
+ * meets [lo, hi] (a face they list that died since is skipped by crosses). */
+static int crosses_stars(const star_list *l, const crossing_query *q, const double lo[3], const double hi[3])
+{
+    uint32_t begin = 0;
+    for (size_t i = 0; i < l->end.size; ++i) {
+        const double *box = l->box.data + 6 * i;
+        const uint32_t end = l->end.data[i];
+        /* | rather than ||: one predictable branch per star (most are apart) */
+        const int apart = (box[0] > hi[0]) | (box[3] < lo[0]) | (box[1] > hi[1]) | (box[4] < lo[1]) |
+                          (box[2] > hi[2]) | (box[5] < lo[2]);
+        if (!apart)
+            for (uint32_t k = begin; k < end; ++k)
+                if (crosses((void *)q, l->faces.data[k])) return 1;
+        begin = end;
+    }
+    return 0;
+}
+
 /* The commit's re-test: 1 when a face of the new star would cross a face
  * that an earlier commit of this batch changed (those were not there when the
  * candidate was tested). Only the stars committed in this batch are visited,
- * not the grid: their lists hold exactly those faces (a face they list that
- * died since is skipped by crosses). */
+ * not the grid: their lists hold exactly those faces. */
 static int crosses_batch(const sim *s, scratch *sc, const collapse *cl)
 {
     double lo[3], hi[3];
     long n = new_star(s, sc, cl, lo, hi);
     if (n < 0) return sc->oom = 1, 1;
     if (n == 0) return 0;
-    crossing_query q = {s, sc->tris, (size_t)n, cl, NULL, 0};
-    uint32_t begin = 0;
-    for (size_t i = 0; i < s->batch_star_end.size; ++i) {
-        const double *box = s->batch_star_box.data + 6 * i;
-        const uint32_t end = s->batch_star_end.data[i];
-        /* | rather than ||: one predictable branch per star (most are apart) */
-        const int apart = (box[0] > hi[0]) | (box[3] < lo[0]) | (box[1] > hi[1]) | (box[4] < lo[1]) |
-                          (box[2] > hi[2]) | (box[5] < lo[2]);
-        if (!apart)
-            for (uint32_t k = begin; k < end; ++k)
-                if (crosses(&q, s->batch_faces.data[k])) return 1;
-        begin = end;
-    }
-    return 0;
+    crossing_query q = {s, sc, sc->tris, (size_t)n, cl, NULL, 0, {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}};
+    return crosses_stars(&s->batch_stars, &q, lo, hi);
 }
 
 /* 1 when a face of the new star (sc->after, from flip_ok) would cross
@@ -621,7 +728,7 @@ static int crosses_batch(const sim *s, scratch *sc, const collapse *cl)
  * neighbours several times. For a change made in place (cl NULL), the grid
  * still holds the changed faces (sc->changed) where they were: they are
  * skipped. */
-static int star_crosses(const sim *s, const scratch *sc, const collapse *cl)
+static int star_crosses(const sim *s, scratch *sc, const collapse *cl)
 {
     const size_t n = sc->changed.size;
     double lo[3], hi[3];
@@ -630,8 +737,14 @@ static int star_crosses(const sim *s, const scratch *sc, const collapse *cl)
         for (size_t j = i + 1; j < n; ++j)
             if (intersect_triangles((const double(*)[3])sc->after[i].p, (const double(*)[3])sc->after[j].p)) return 1;
     if (!n) return 0;
-    crossing_query q = {s, sc->after, n, cl, cl ? NULL : sc->changed.data, cl ? 0 : n};
-    return facegrid_query(&s->grid, lo, hi, crosses, &q);
+    crossing_query q = {s, sc, sc->after, n, cl, cl ? NULL : sc->changed.data, cl ? 0 : n,
+                        {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}};
+    if (!sc->region) return facegrid_query(&s->grid, lo, hi, crosses, &q);
+    /* in a region: its own faces and the shared ones (another region's
+     * faces cannot cross these, region_partition) */
+    local_query lq = {&q, sc->region->own->faces.data};
+    return facegrid_query(&sc->region->own->grid, lo, hi, crosses_local, &lq) ||
+           facegrid_query(sc->region->shared, lo, hi, crosses, &q);
 }
 
 static void box_add(double lo[3], double hi[3], const double p[3])
@@ -710,6 +823,15 @@ static int certify_change(const sim *s, scratch *sc, candidate *c, const collaps
                 uint32_t unit = cluster == REGISTRY_NONE ? slot / REGISTRY_SLOTS : s->nf + cluster;
                 int fresh = keymap_insert(&sc->origs, unit, 0);
                 if (fresh < 0 || (fresh && u32_push(&sc->recheck, unit))) return sc->oom = 1, 0;
+                if (fresh && sc->region) { /* it is re-registered: every face of it must be the region's */
+                    uint32_t on[REGISTRY_SLOTS], n = unit_faces(s, unit, on);
+                    for (uint32_t k = 0; k < n; ++k)
+                        if (!face_owned(s, sc, on[k])) {
+                            sc->deferred = 1;
+                            c->reason = REJECT_DEFERRED;
+                            return 0;
+                        }
+                }
             }
     }
     /* candidate faces: the changed ones, the others around them and the
@@ -726,6 +848,10 @@ static int certify_change(const sim *s, scratch *sc, candidate *c, const collaps
         uint32_t faces[REGISTRY_SLOTS], n = unit_faces(s, sc->recheck.data[i], faces);
         for (uint32_t k = 0; k < n; ++k)
             if (add_candidate_face(s, sc, faces[k], u, v)) return sc->oom = 1, 0;
+    }
+    if (sc->deferred) {
+        c->reason = REJECT_DEFERRED;
+        return 0;
     }
     size_t prepared = 0;
     int ring_added = 0;
@@ -776,6 +902,12 @@ static int certify_change(const sim *s, scratch *sc, candidate *c, const collaps
                         if (s->corner_vertex[cc] == x && add_candidate_face(s, sc, cc / 3, u, v)) return sc->oom = 1, 0;
                 }
             }
+            if (sc->deferred) {
+                sc->out_u32.size = u32_start;
+                sc->out_f64.size = f64_start;
+                c->reason = REJECT_DEFERRED;
+                return 0;
+            }
         }
         if (u32_push(&sc->out_u32, t) || u32_push(&sc->out_u32, n)) return sc->oom = 1, 0;
         for (uint32_t k = 0; k < CERT_MAX_WITNESSES; ++k)
@@ -809,16 +941,30 @@ static int certify_change(const sim *s, scratch *sc, candidate *c, const collaps
     return 1;
 }
 
-static int compare_neighbour_cost(const void *a, const void *b)
+/* Cheaper first, the lower vertex number on a tie (a total order: the
+ * neighbours are distinct). */
+static int neighbour_before(const neighbour *a, const neighbour *b)
 {
-    const neighbour *x = a, *y = b;
-    if (x->cost != y->cost) return x->cost < y->cost ? -1 : 1;
-    return x->x < y->x ? -1 : x->x > y->x;
+    return a->cost < b->cost || (a->cost == b->cost && a->x < b->x);
+}
+
+/* u's handful of neighbours in that order, by insertion (glibc's qsort
+ * copies each record through a merge buffer: 8 % of the instructions of a
+ * whole run). */
+static void sort_neighbours(neighbour *nb, size_t n)
+{
+    for (size_t i = 1; i < n; ++i) {
+        const neighbour key = nb[i];
+        size_t j = i;
+        for (; j > 0 && neighbour_before(&key, &nb[j - 1]); --j) nb[j] = nb[j - 1];
+        nb[j] = key;
+    }
 }
 
 static void evaluate(const sim *s, scratch *sc, candidate *c)
 {
     const uint32_t u = c->u;
+    sc->deferred = 0;
     c->v = NONE;
     c->reason = SIMPLIFY_REJECT_KIND;
     c->attempts = 0;
@@ -830,7 +976,7 @@ static void evaluate(const sim *s, scratch *sc, candidate *c)
     int nclass = classify_neighbours(s, sc, u);
     if (nclass <= 0) return;
     if (legal_targets(s, sc, u, nclass) == 0) return;
-    qsort(sc->nb, sc->nb_size, sizeof *sc->nb, compare_neighbour_cost);
+    sort_neighbours(sc->nb, sc->nb_size);
     uint32_t tried = 0;
     for (size_t i = 0; i < sc->nb_size && tried < TARGETS_TRIED; ++i) {
         const neighbour *e = &sc->nb[i];
@@ -881,7 +1027,7 @@ static void evaluate(const sim *s, scratch *sc, candidate *c)
                 c->cost = e->cost;
                 return;
             }
-            if (sc->oom) return;
+            if (sc->oom || sc->deferred) return;
         }
     }
 }
@@ -979,11 +1125,12 @@ static void batch_close(batch_run *r)
 /* ---- commit -------------------------------------------------------------------- */
 
 /* Marks the vertices of every face around v (after the collapse onto it) as
- * changed by this commit: a candidate within one edge of them reads a face
- * that changed (collect_candidates), i.e. every vertex within two edges of v. */
-static void stamp_changes(sim *s, uint32_t v)
+ * changed by this commit (the next value of *clock): a candidate within one
+ * edge of them reads a face that changed (collect_candidates), i.e. every
+ * vertex within two edges of v. */
+static void stamp_changes(sim *s, uint32_t v, uint32_t *clock_now)
 {
-    const uint32_t clock = ++s->commit_clock;
+    const uint32_t clock = ++*clock_now;
     s->change_stamp[v] = clock;
     for (uint32_t c = s->vertex_first[v]; c != NONE; c = s->corner_next[c])
         if (s->face_alive[c / 3] && s->corner_vertex[c] == v)
@@ -1046,9 +1193,16 @@ static records records_of(const sim *s, const candidate *c)
     return r;
 }
 
+/* A cluster one of whose originals was re-registered: try it whole again.
+ * Regions of one round may mark the same cluster. */
+static void mark_cluster_dirty(sim *s, uint32_t cluster)
+{
+    atomic_store_explicit(&s->cluster_dirty[cluster], 1, memory_order_relaxed);
+}
+
 /* The certified change c's records: its changed faces' bounds, and each
  * re-certified original's (or cluster's) registration and bound. */
-static void commit_records(sim *s, const candidate *c)
+static void commit_records(sim *s, const candidate *c, simplify_stats *stats)
 {
     const records rec = records_of(s, c);
     for (uint32_t i = 0; i < c->changed_count; ++i)
@@ -1058,36 +1212,66 @@ static void commit_records(sim *s, const candidate *c)
         if (r[0] >= s->nf) { /* a cluster: whole again (one face) or split (no face) */
             registry_clear_cluster(&s->reg, r[0] - s->nf);
             if (r[1]) registry_set_cluster(&s->reg, r[0] - s->nf, r[2]);
-            else s->stats->cluster_splits++;
+            else stats->cluster_splits++;
         } else {
             registry_clear(&s->reg, r[0]);
             registry_set(&s->reg, r[0], r + 2, r[1]);
-            s->cluster_dirty[s->orig.cluster_of[r[0]]] = 1;
+            mark_cluster_dirty(s, s->orig.cluster_of[r[0]]);
         }
         s->unit_bound[r[0]] = rec.unit_bounds[i];
         s->unit_stamp[r[0]] = s->batch_stamp;
     }
 }
 
+/* Where a commit's effects go besides the mesh: in the global passes the
+ * serial scratch, the level's statistics, the global clock, the batch's
+ * stars and the grid log (rg NULL); in a region of a round its thread's
+ * scratch and its own statistics, clock and grid (the level's grid is
+ * rebuilt after the region phase). */
+typedef struct committer {
+    scratch *sc;
+    simplify_stats *stats;
+    uint32_t *clock;
+    star_list *stars;
+    region *rg;
+} committer;
+
+/* A face of the region died, or is now in [lo, hi]. */
+static void own_grid_remove(own_grid *g, uint32_t f)
+{
+    const uint32_t *local = keymap_find(&g->local, f);
+    if (!local) return;
+    facegrid_remove(&g->grid, *local);
+    g->alive--;
+}
+
+static int own_grid_move(own_grid *g, uint32_t f, const double lo[3], const double hi[3])
+{
+    const uint32_t *local = keymap_find(&g->local, f);
+    return local && facegrid_insert(&g->grid, *local, lo, hi) == FACEGRID_OK ? 0 : -1;
+}
+
 /* Applies an accepted collapse. Returns 1 committed, 0 skipped because an
- * earlier commit of the batch re-registered one of its originals. */
-static int commit(sim *s, const candidate *c)
+ * earlier commit of the batch re-registered one of its originals (a region
+ * evaluates each candidate after the commits before it: never). */
+static int commit(sim *s, const candidate *c, const committer *cm)
 {
     const uint32_t u = c->u, v = c->v;
     const collapse cl = {u, v, c->moved, {c->place[0], c->place[1], c->place[2]}};
     const records rec = records_of(s, c);
     const uint32_t *changed = rec.changed;
     const double *changed_f64 = rec.changed_f64;
-    for (uint32_t i = 0; i < c->recheck_count; ++i)
-        if (s->unit_stamp[rec.units[(size_t)i * UNIT_RECORD]] == s->batch_stamp) return 0;
+    if (!cm->rg)
+        for (uint32_t i = 0; i < c->recheck_count; ++i)
+            if (s->unit_stamp[rec.units[(size_t)i * UNIT_RECORD]] == s->batch_stamp) return 0;
 
-    scratch *sc = &s->serial;
+    scratch *sc = cm->sc;
     if (gather_faces(s, u, &sc->faces_u)) return sc->oom = 1, 0;
     if (cl.moved && gather_faces(s, v, &sc->faces_v)) return sc->oom = 1, 0;
     if (gather_changed(s, sc, &cl)) return sc->oom = 1, 0;
     /* faces committed earlier in this batch were not there when the candidate
      * was tested for crossings (its star and the thin map are as they were) */
-    if (c->thin && crosses_batch(s, sc, &cl)) return 0;
+    if (!cm->rg && c->thin && crosses_batch(s, sc, &cl)) return 0;
     if (sc->oom) return 0;
     if (s->verify) /* the grid update's old boxes (from the evaluation) are the faces' boxes now */
         for (size_t i = 0; i < sc->changed.size && i < c->changed_count; ++i) {
@@ -1113,7 +1297,8 @@ static int commit(sim *s, const candidate *c)
         uint32_t f = sc->faces_u.data[i], cu = corner_of(s, f, u);
         if (face_has(s, f, v)) {
             s->face_alive[f] = 0;
-            s->faces_alive--;
+            if (cm->rg) cm->rg->faces_died++;
+            else s->faces_alive--;
             continue;
         }
         uint32_t cls = wedge_class_of_corner(s, cu), wedge = NONE;
@@ -1140,7 +1325,8 @@ static int commit(sim *s, const candidate *c)
         for (size_t i = 0; i < star->size; ++i) {
             uint32_t f = star->data[i];
             if (!s->face_alive[f]) {
-                gridlog_remove(&s->grid_log, f);
+                if (cm->rg) own_grid_remove(cm->rg->own, f);
+                else gridlog_remove(&s->grid_log, f);
                 continue;
             }
             if (next_changed == c->changed_count || changed[next_changed] != f) { /* never certified: a bug */
@@ -1159,18 +1345,24 @@ static int commit(sim *s, const candidate *c)
                 snprintf(s->verify_msg, sizeof s->verify_msg, "collapse %u -> %u: face %u is not where it was certified", u, v, f);
                 return 0;
             }
+            if (cm->rg) {
+                if (own_grid_move(cm->rg->own, f, t.lo, t.hi)) return sc->oom = 1, 0;
+                continue;
+            }
             gridlog_move(&s->grid_log, f, old_box, old_box + 3, t.lo, t.hi);
-            if (u32_push(&s->batch_faces, f)) return sc->oom = 1, 0;
+            if (u32_push(&cm->stars->faces, f)) return sc->oom = 1, 0;
             for (int a = 0; a < 3; ++a) {
                 star_box[a] = geom_fmin(star_box[a], t.lo[a]);
                 star_box[3 + a] = geom_fmax(star_box[3 + a], t.hi[a]);
             }
         }
     }
-    if (u32_push(&s->batch_star_end, (uint32_t)s->batch_faces.size)) return sc->oom = 1, 0;
-    for (int a = 0; a < 6; ++a)
-        if (f64_push(&s->batch_star_box, star_box[a])) return sc->oom = 1, 0;
-    commit_records(s, c);
+    if (!cm->rg) {
+        if (u32_push(&cm->stars->end, (uint32_t)cm->stars->faces.size)) return sc->oom = 1, 0;
+        for (int a = 0; a < 6; ++a)
+            if (f64_push(&cm->stars->box, star_box[a])) return sc->oom = 1, 0;
+    }
+    commit_records(s, c, cm->stats);
     /* u's corners join v's list */
     uint32_t cnext;
     for (uint32_t cc = s->vertex_first[u]; cc != NONE; cc = cnext) {
@@ -1192,7 +1384,7 @@ static int commit(sim *s, const candidate *c)
         }
     }
     retire_vertex(s, u, v);
-    stamp_changes(s, v);
+    stamp_changes(s, v, cm->clock);
     if (s->verify && verify_after_commit(s, c) != 0) return 0;
     return 1;
 }
@@ -1490,12 +1682,13 @@ static void rank_cheapest(ranked *a, size_t n, size_t share)
 static int reserve_footprint(sim *s, uint32_t u)
 {
     scratch *sc = &s->serial;
+    const uint32_t batch_stamp = s->batch_stamp;
     sc->ring.size = 0;
     if (next_stamp(sc) || u32_push(&sc->ring, u)) return sc->oom = 1, 0;
     sc->vertex_seen[u] = sc->stamp;
     /* each vertex is checked as it is reached, so a candidate that must wait
      * (most of them, late in a pass) stops at the first conflict */
-    if (s->vertex_stamp[u] == s->batch_stamp) return 0;
+    if (s->vertex_stamp[u] == batch_stamp) return 0;
     size_t begin = 0, one_ring_end = 1;
     for (int depth = 0; depth < 2; ++depth) {
         size_t end = sc->ring.size;
@@ -1507,7 +1700,7 @@ static int reserve_footprint(sim *s, uint32_t u)
                     uint32_t y = s->corner_vertex[3 * (c / 3) + k];
                     if (sc->vertex_seen[y] == sc->stamp) continue;
                     sc->vertex_seen[y] = sc->stamp;
-                    if (s->vertex_stamp[y] == s->batch_stamp) return 0; /* R meets a W */
+                    if (s->vertex_stamp[y] == batch_stamp) return 0; /* R meets a W */
                     if (u32_push(&sc->ring, y)) return sc->oom = 1, 0;
                 }
             }
@@ -1516,7 +1709,7 @@ static int reserve_footprint(sim *s, uint32_t u)
         if (depth == 0) one_ring_end = sc->ring.size;
     }
     const size_t write_end = s->full_edge ? sc->ring.size : one_ring_end;
-    for (size_t i = 0; i < write_end; ++i) s->vertex_stamp[sc->ring.data[i]] = s->batch_stamp;
+    for (size_t i = 0; i < write_end; ++i) s->vertex_stamp[sc->ring.data[i]] = batch_stamp;
     return 1;
 }
 
@@ -1534,8 +1727,8 @@ static int merge_clusters(sim *s)
     u32vec merged = {0};
     if (grow((void **)&sc->tris, &sc->tris_cap, MERGE_FACES_TRIED, sizeof *sc->tris)) return sc->oom = 1, -1;
     for (uint32_t c = 0; c < s->orig.cluster_count; ++c) {
-        if (!s->cluster_dirty[c]) continue;
-        s->cluster_dirty[c] = 0;
+        if (!atomic_load_explicit(&s->cluster_dirty[c], memory_order_relaxed)) continue;
+        atomic_store_explicit(&s->cluster_dirty[c], 0, memory_order_relaxed);
         const cert_cluster_info *info = &s->orig.clusters[c];
         if (info->material == CERT_MIXED || info->cone_sin > 1.0) continue;
         const uint32_t *order = s->orig.tree.triangle_order + info->first;
@@ -1566,37 +1759,47 @@ static int merge_clusters(sim *s)
     return rc;
 }
 
-/* (Re)builds the face grid with cells about twice the alive faces' mean
- * extent. Returns 0, or -1 when memory runs out. */
-static int grid_rebuild(sim *s)
+/* Makes grid g again over the alive faces among faces[0 .. n) (faces 0 ..
+ * n - 1 when faces is NULL), entered under their own numbers or, with
+ * local, under their index in faces. Cells are twice the faces' mean
+ * extent: a query then visits few faces that are not near it. Except over
+ * the whole original (the first level's start, the memory peak), where 4x
+ * spans fewer cells per face: measured on a 1.1M-triangle chain, 2x
+ * throughout cost 19 bytes a triangle more at the peak, 4x throughout 1.4 s
+ * more time. Returns the number of alive faces, or -1 when memory runs out. */
+static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n, int local, uint32_t capacity)
 {
     double extent = 0.0;
     uint32_t alive = 0;
     cert_tri t;
-    for (uint32_t f = 0; f < s->nf; ++f) {
+    for (size_t i = 0; i < n; ++i) {
+        const uint32_t f = faces ? faces[i] : (uint32_t)i;
         if (!s->face_alive[f]) continue;
         face_box_after(s, f, NULL, &t);
-        double e = geom_fmax(t.hi[0] - t.lo[0], geom_fmax(t.hi[1] - t.lo[1], t.hi[2] - t.lo[2]));
+        const double e = geom_fmax(t.hi[0] - t.lo[0], geom_fmax(t.hi[1] - t.lo[1], t.hi[2] - t.lo[2]));
         if (isfinite(e)) extent += e;
         alive++;
     }
-    /* cells twice the mean extent: a query then visits few faces that are
-     * not near it. Except over the whole original (the first level's start,
-     * the memory peak), where 4x spans fewer cells per face: measured on a
-     * 1.1M-triangle chain, 2x throughout cost 19 bytes a triangle more at the
-     * peak, 4x throughout 1.4 s more time. */
     const double factor = alive == s->nf ? 4.0 : 2.0;
     double cell = alive ? factor * extent / alive : 1.0;
     if (!(cell > 0.0) || !isfinite(cell)) cell = 1.0;
-    facegrid_free(&s->grid);
-    if (facegrid_init(&s->grid, cell, s->nf) != FACEGRID_OK) return -1;
-    for (uint32_t f = 0; f < s->nf; ++f) {
+    facegrid_free(g);
+    if (facegrid_init(g, cell, capacity) != FACEGRID_OK) return -1;
+    for (size_t i = 0; i < n; ++i) {
+        const uint32_t f = faces ? faces[i] : (uint32_t)i;
         if (!s->face_alive[f]) continue;
         face_box_after(s, f, NULL, &t);
-        if (facegrid_insert(&s->grid, f, t.lo, t.hi) != FACEGRID_OK) return -1;
+        if (facegrid_insert(g, local ? (uint32_t)i : f, t.lo, t.hi) != FACEGRID_OK) return -1;
     }
-    s->grid_built_with = alive;
-    s->faces_alive = alive;
+    return alive;
+}
+
+/* (Re)builds the level's face grid. Returns 0, or -1 when memory runs out. */
+static int grid_rebuild(sim *s)
+{
+    const long alive = grid_fill(s, &s->grid, NULL, s->nf, 0, s->nf);
+    if (alive < 0) return -1;
+    s->grid_built_with = s->faces_alive = (uint32_t)alive;
     return 0;
 }
 
@@ -1658,7 +1861,8 @@ static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
             *commits = -1;
             return;
         }
-    s->batch_faces.size = s->batch_star_end.size = s->batch_star_box.size = 0;
+    s->batch_stars.faces.size = s->batch_stars.end.size = s->batch_stars.box.size = 0;
+    const committer cm = {&s->serial, st, &s->commit_clock, &s->batch_stars, NULL};
     /* the grid's updates go to the core that would otherwise wait */
     gridlog_start(&s->grid_log, &s->grid, s->thread_count > 1);
     int failed = 0;
@@ -1671,7 +1875,7 @@ static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
             s->reject_stamp[c->u] = s->commit_clock;
             continue;
         }
-        if (!commit(s, c)) {
+        if (!commit(s, c, &cm)) {
             failed = s->verify_failed || s->serial.oom;
             if (!failed) st->rejected[SIMPLIFY_REJECT_CONFLICT]++;
             continue;
@@ -1682,6 +1886,549 @@ static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
     if (gridlog_finish(&s->grid_log)) failed = s->serial.oom = 1;
     if (failed) *commits = -1;
     st->seconds_commit += lp_seconds() - t3;
+}
+
+/* ---- regions: rounds of independent local simplification ------------------------ */
+
+/* Early in a level most collapses are cheap and far apart, and the global
+ * passes keep one core busy with their serial steps (reserving each batch's
+ * neighbourhoods, committing) while the evaluations wait. A round cuts the
+ * alive vertices into regions, the cells of a cubic grid holding about
+ * REGION_SIZE vertices each; one thread simplifies a region on its own (a
+ * priority queue of its candidates, each evaluated as in the passes and
+ * committed at once), while other threads run other regions. A region owns
+ * the faces whose three vertices are all in it and works only on its
+ * interior vertices (their 2-ball lies in the region), so what it changes no
+ * other region reads: a candidate that would register an original to a face
+ * it does not own, or re-register one that a face of another region holds
+ * too, is deferred to a later round; the faces another region owns lie in
+ * that region's cell and cannot cross its new faces. Rounds shift the grid
+ * by half a cell, and the global passes finish the level. Which region a
+ * thread runs changes nothing: the result does not depend on the thread
+ * count. */
+#define REGION_SIZE 4096
+/* A region stops when it has removed this many quarters of its interior
+ * vertices: the vertices near its boundary stay as they are this round, and
+ * a region taken as far as eps allows would leave long faces along them
+ * that the next rounds could not undo. Measured on the 1.1M-triangle chain
+ * (1 % level): 526 triangles without a cap, 491 with 2 quarters, 470 with
+ * 3 (the global passes alone: 479); the bunny's 1/64 .. 1 % levels within
+ * 1 % of the global passes' either way. */
+#define REGION_TAKE 3
+/* rounds run while this many regions' worth of vertices are alive */
+#define REGION_MIN_REGIONS 4
+/* and while a round removes at least 1/REGION_STOP of them */
+#define REGION_STOP 32
+
+enum { VERTEX_CORE = 1, VERTEX_INTERIOR = 2 };
+
+/* Sorts ids[0 .. n) by key (stable: least significant byte first, as many
+ * bytes as max_key needs), with tmp_key and tmp_id as room. */
+static void radix_sort_keys(uint64_t *key, uint32_t *ids, uint64_t *tmp_key, uint32_t *tmp_id, uint32_t n,
+                            uint64_t max_key)
+{
+    size_t count[256];
+    for (int shift = 0; shift < 64 && (max_key >> shift); shift += 8) {
+        memset(count, 0, sizeof count);
+        for (uint32_t i = 0; i < n; ++i) count[(key[i] >> shift) & 255]++;
+        size_t at = 0;
+        for (int b = 0; b < 256; ++b) {
+            const size_t c = count[b];
+            count[b] = at;
+            at += c;
+        }
+        for (uint32_t i = 0; i < n; ++i) {
+            const size_t to = count[(key[i] >> shift) & 255]++;
+            tmp_key[to] = key[i];
+            tmp_id[to] = ids[i];
+        }
+        memcpy(key, tmp_key, (size_t)n * sizeof *key);
+        memcpy(ids, tmp_id, (size_t)n * sizeof *ids);
+    }
+}
+
+/* Each vertex's cell of side `cell` (shifted by half a cell when shifted),
+ * numbered x fastest, into key[] for spatial[0 .. n); returns the largest. */
+static uint64_t cell_keys(const sim *s, uint32_t n, const double lo[3], const double hi[3], double cell, int shifted,
+                          uint64_t *key)
+{
+    const double off = shifted ? 0.5 : 0.0;
+    uint64_t dim[3], max_key = 0;
+    for (int a = 0; a < 3; ++a) dim[a] = (uint64_t)((hi[a] - lo[a]) / cell + off) + 1;
+    for (uint32_t i = 0; i < n; ++i) {
+        const float *p = s->positions + 3 * (size_t)s->spatial[i];
+        uint64_t c[3];
+        for (int a = 0; a < 3; ++a) {
+            const double q = (p[a] - lo[a]) / cell + off; /* monotone in p: cells keep their order */
+            c[a] = q > 0.0 ? (uint64_t)q : 0;
+            if (c[a] >= dim[a]) c[a] = dim[a] - 1;
+        }
+        key[i] = c[0] + dim[0] * (c[1] + dim[1] * c[2]);
+        if (key[i] > max_key) max_key = key[i];
+    }
+    return max_key;
+}
+
+/* Cuts the alive vertices into the round's regions: the cells of a cubic
+ * grid (shifted by half a cell in odd rounds, so a round's boundaries run
+ * through the middle of the previous round's regions), sized so that a
+ * region holds about `size` vertices. Two regions' vertices lie in
+ * disjoint half-open cells, and so do the faces each region owns (a
+ * triangle lies in the box of its corners): no face a region makes can
+ * cross a face another one owns. Sets region_of, face_owner and the
+ * interior flags. Returns the number of regions, or -1 when memory runs
+ * out. */
+static long region_partition(sim *s, region **regions, uint32_t size, int shifted)
+{
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < s->spatial_count; ++i)
+        if (s->vertex_alive[s->spatial[i]]) s->spatial[n++] = s->spatial[i];
+    s->spatial_count = n;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t i = 0; i < n; ++i)
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = geom_fmin(lo[a], s->positions[3 * (size_t)s->spatial[i] + a]);
+            hi[a] = geom_fmax(hi[a], s->positions[3 * (size_t)s->spatial[i] + a]);
+        }
+    uint64_t *key = malloc(((size_t)n + 1) * sizeof *key), *tmp_key = malloc(((size_t)n + 1) * sizeof *tmp_key);
+    uint32_t *tmp_id = malloc(((size_t)n + 1) * sizeof *tmp_id);
+    if (!key || !tmp_key || !tmp_id) {
+        free(key);
+        free(tmp_key);
+        free(tmp_id);
+        return -1;
+    }
+    double extent = 0.0;
+    for (int a = 0; a < 3; ++a) extent = geom_fmax(extent, hi[a] - lo[a]);
+    if (!(extent > 0.0) || !isfinite(extent)) extent = 1.0;
+    double cell;
+    if (s->region_alive0 == 0) {
+        /* the first round measures how many vertices a cell holds (a surface:
+         * about the square of its side) and sizes the cells for `size`;
+         * again when the cells were too fine to hold several vertices, or
+         * far off */
+        cell = extent / 32.0;
+        for (int tries = 0; tries < 4; ++tries) {
+            const uint64_t max_key = cell_keys(s, n, lo, hi, cell, 0, key);
+            radix_sort_keys(key, s->spatial, tmp_key, tmp_id, n, max_key);
+            uint32_t cells = n ? 1 : 0;
+            for (uint32_t i = 1; i < n; ++i) cells += key[i] != key[i - 1];
+            const double mean = cells ? (double)n / cells : 1.0;
+            cell *= sqrt((double)size / mean);
+            if (!(cell > extent / 1048576.0)) cell = extent / 1048576.0; /* keys stay below 2^60 */
+            if (mean >= 8.0 && mean >= size / 4.0 && mean <= size * 4.0) break;
+        }
+        s->region_cell = cell;
+        s->region_alive0 = n;
+    } else { /* fewer vertices, the same density per region: larger cells */
+        cell = s->region_cell * sqrt((double)s->region_alive0 / (n ? n : 1));
+    }
+    const uint64_t max_key = cell_keys(s, n, lo, hi, cell, shifted, key);
+    radix_sort_keys(key, s->spatial, tmp_key, tmp_id, n, max_key);
+    uint32_t parts = n ? 1 : 0;
+    for (uint32_t i = 1; i < n; ++i) parts += key[i] != key[i - 1];
+    region *r = calloc((size_t)parts + 1, sizeof *r);
+    if (!r) {
+        free(key);
+        free(tmp_key);
+        free(tmp_id);
+        return -1;
+    }
+    uint32_t k = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+        if (i > 0 && key[i] != key[i - 1]) {
+            r[k].end = i;
+            r[++k].begin = i;
+        }
+        r[k].id = k;
+        s->region_of[s->spatial[i]] = k;
+    }
+    if (n) r[k].end = n;
+    free(key);
+    free(tmp_key);
+    free(tmp_id);
+    for (uint32_t f = 0; f < s->nf; ++f) {
+        if (!s->face_alive[f]) continue;
+        const uint32_t *cv = s->corner_vertex + 3 * (size_t)f, a = s->region_of[cv[0]];
+        s->face_owner[f] = a == s->region_of[cv[1]] && a == s->region_of[cv[2]] ? a : REGION_SHARED;
+    }
+    /* core: every face around the vertex is its region's; interior: so are
+     * its neighbours' (then its 2-ball lies in the region, and stays there
+     * while the region collapses its own interior vertices) */
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t x = s->spatial[i];
+        uint8_t core = VERTEX_CORE;
+        for (uint32_t c = s->vertex_first[x]; c != NONE && core; c = s->corner_next[c])
+            if (s->face_alive[c / 3] && s->corner_vertex[c] == x && s->face_owner[c / 3] != s->region_of[x]) core = 0;
+        s->interior[x] = core;
+    }
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t x = s->spatial[i];
+        if (!s->interior[x]) continue;
+        int all = 1;
+        for (uint32_t c = s->vertex_first[x]; c != NONE && all; c = s->corner_next[c])
+            if (s->face_alive[c / 3] && s->corner_vertex[c] == x)
+                for (int k = 0; k < 3; ++k) all &= s->interior[s->corner_vertex[3 * (c / 3) + k]] & VERTEX_CORE;
+        if (all) s->interior[x] |= VERTEX_INTERIOR;
+    }
+    *regions = r;
+    return parts;
+}
+
+/* A region's queue entry: u's cost when it was queued (queued[u] tells
+ * whether it is still the latest). */
+typedef struct queued_cost {
+    double cost;
+    uint32_t u, version;
+} queued_cost;
+
+static int queued_before(const queued_cost *x, const queued_cost *y)
+{
+    return x->cost < y->cost || (x->cost == y->cost && x->u < y->u);
+}
+
+/* What one thread keeps while it runs regions: a region's queue (a binary
+ * heap, cheapest first), the grid of its faces, the candidates it deferred
+ * and a vertex list. */
+typedef struct region_thread {
+    queued_cost *heap;
+    size_t heap_size, heap_cap;
+    own_grid own;
+    u32vec deferred, ring;
+} region_thread;
+
+static void region_thread_free(region_thread *t)
+{
+    free(t->heap);
+    facegrid_free(&t->own.grid);
+    free(t->own.faces.data);
+    keymap_free(&t->own.local);
+    free(t->deferred.data);
+    free(t->ring.data);
+}
+
+/* (Re)builds the grid of a region's alive faces (g->faces fixed). */
+static int own_grid_build(const sim *s, own_grid *g)
+{
+    const long alive = grid_fill(s, &g->grid, g->faces.data, g->faces.size, 1, (uint32_t)g->faces.size);
+    if (alive < 0) return -1;
+    g->alive = g->built = (uint32_t)alive;
+    return 0;
+}
+
+/* The faces region rg owns (each from its first corner's vertex). */
+static int own_grid_init(const sim *s, const region *rg, own_grid *g)
+{
+    g->faces.size = 0;
+    keymap_clear(&g->local);
+    for (uint32_t i = rg->begin; i < rg->end; ++i) {
+        const uint32_t x = s->spatial[i];
+        for (uint32_t c = s->vertex_first[x]; c != NONE; c = s->corner_next[c]) {
+            const uint32_t f = c / 3;
+            if (!s->face_alive[f] || s->corner_vertex[c] != x || c != 3 * f || s->face_owner[f] != rg->id) continue;
+            if (keymap_insert(&g->local, f, (uint32_t)g->faces.size) < 0 || u32_push(&g->faces, f)) return -1;
+        }
+    }
+    return own_grid_build(s, g);
+}
+
+static int heap_push(region_thread *t, queued_cost e)
+{
+    if (grow((void **)&t->heap, &t->heap_cap, t->heap_size + 1, sizeof *t->heap)) return -1;
+    size_t i = t->heap_size++;
+    while (i > 0) {
+        const size_t parent = (i - 1) / 2;
+        if (!queued_before(&e, &t->heap[parent])) break;
+        t->heap[i] = t->heap[parent];
+        i = parent;
+    }
+    t->heap[i] = e;
+    return 0;
+}
+
+static queued_cost heap_pop(region_thread *t)
+{
+    const queued_cost top = t->heap[0], last = t->heap[--t->heap_size];
+    size_t i = 0, n = t->heap_size;
+    for (;;) {
+        size_t child = 2 * i + 1;
+        if (child >= n) break;
+        if (child + 1 < n && queued_before(&t->heap[child + 1], &t->heap[child])) child++;
+        if (!queued_before(&t->heap[child], &last)) break;
+        t->heap[i] = t->heap[child];
+        i = child;
+    }
+    if (n) t->heap[i] = last;
+    return top;
+}
+
+/* Queues u, a candidate of the region, with its current cost (the cost of
+ * its cheapest neighbour, as the global passes rank it); an earlier entry
+ * of u becomes stale. Returns 0, or -1 when memory runs out. */
+static int region_queue(sim *s, region_thread *t, uint32_t u)
+{
+    if (!(s->interior[u] & VERTEX_INTERIOR) || !s->vertex_alive[u] || s->w->vertex_kind[u] == WELD_LOCKED) return 0;
+    double best = INFINITY, place[3];
+    for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c]) {
+        if (!s->face_alive[c / 3] || s->corner_vertex[c] != u) continue;
+        int full = 0;
+        const double e = edge_cost(s, u, s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3], &full, place);
+        if (e < best) best = e;
+    }
+    if (!(best < INFINITY)) return 0;
+    return heap_push(t, (queued_cost){best, u, ++s->queued[u]});
+}
+
+/* After a commit onto v: the vertices within two edges of v are queued
+ * again with their new costs (v's quadric changed, so did the costs of its
+ * neighbours) or, when they were rejected, tried again (a face within two
+ * edges of them changed, as in collect_candidates). */
+static int region_requeue(sim *s, scratch *sc, region_thread *t, uint32_t v)
+{
+    t->ring.size = 0;
+    if (next_stamp(sc) || u32_push(&t->ring, v)) return -1;
+    sc->vertex_seen[v] = sc->stamp;
+    size_t begin = 0, one_ring_end = 1;
+    for (int depth = 0; depth < 2; ++depth) {
+        const size_t end = t->ring.size;
+        for (size_t i = begin; i < end; ++i) {
+            const uint32_t x = t->ring.data[i];
+            for (uint32_t c = s->vertex_first[x]; c != NONE; c = s->corner_next[c]) {
+                if (!s->face_alive[c / 3] || s->corner_vertex[c] != x) continue;
+                for (int k = 0; k < 3; ++k) {
+                    const uint32_t y = s->corner_vertex[3 * (c / 3) + k];
+                    if (sc->vertex_seen[y] == sc->stamp) continue;
+                    sc->vertex_seen[y] = sc->stamp;
+                    if (u32_push(&t->ring, y)) return -1;
+                }
+            }
+        }
+        begin = end;
+        if (depth == 0) one_ring_end = t->ring.size;
+    }
+    for (size_t i = 0; i < t->ring.size; ++i) {
+        const uint32_t x = t->ring.data[i];
+        /* outside the region's interior nothing is read: region_queue skips it */
+        if (!(s->interior[x] & VERTEX_INTERIOR)) continue;
+        if (s->reject_stamp[x] != NONE) {
+            if (!changed_since(s, x, s->reject_stamp[x])) continue;
+            s->reject_stamp[x] = NONE;
+        } else if (i >= one_ring_end) {
+            continue; /* queued, and its cost did not change: no neighbour's quadric did */
+        }
+        if (region_queue(s, t, x)) return -1;
+    }
+    return 0;
+}
+
+/* Simplifies region rg on this thread: its candidates in cost order, the
+ * cheapest first, each evaluated and, when certified, committed at once;
+ * the costs around a commit are updated and what it may have unblocked is
+ * tried again, until the queue is empty or REGION_TAKE quarters of its
+ * interior vertices are gone. */
+static void region_run(sim *s, region *rg, uint32_t thread, region_thread *rt)
+{
+    scratch *sc = &s->scratch[thread];
+    rg->own = &rt->own;
+    rt->heap_size = 0;
+    sc->region = rg;
+    const committer cm = {sc, &rg->stats, &rg->clock, NULL, rg};
+    if (own_grid_init(s, rg, &rt->own)) goto oom;
+    uint64_t interior = 0;
+    for (uint32_t i = rg->begin; i < rg->end; ++i) {
+        const uint32_t u = s->spatial[i];
+        interior += (s->interior[u] & VERTEX_INTERIOR) != 0;
+        if (s->reject_stamp[u] != NONE) {
+            if (!(s->interior[u] & VERTEX_INTERIOR) || !changed_since(s, u, s->reject_stamp[u])) continue;
+            s->reject_stamp[u] = NONE;
+        }
+        if (region_queue(s, rt, u)) goto oom;
+    }
+    const uint64_t limit = interior * REGION_TAKE / 4;
+    while (rt->heap_size && rg->stats.commits < limit) {
+        const queued_cost e = heap_pop(rt);
+        if (e.version != s->queued[e.u] || !s->vertex_alive[e.u]) continue; /* stale */
+        candidate c;
+        memset(&c, 0, sizeof c);
+        c.u = e.u;
+        c.thread = thread;
+        sc->out_u32.size = sc->out_f64.size = 0;
+        evaluate(s, sc, &c);
+        if (sc->oom) goto oom;
+        rg->stats.candidates++;
+        rg->stats.attempts += c.attempts;
+        if (c.v == NONE) {
+            if (c.reason == REJECT_DEFERRED) {
+                rg->stats.deferred++;
+                if (u32_push(&rt->deferred, c.u)) goto oom;
+            } else {
+                rg->stats.rejected[c.reason]++;
+            }
+            s->reject_stamp[c.u] = rg->clock;
+            continue;
+        }
+        if (!commit(s, &c, &cm)) { /* in a region only a failure stops a commit */
+            rg->failed = 1;
+            break;
+        }
+        rg->stats.commits++;
+        if (region_requeue(s, sc, rt, c.v)) goto oom;
+        /* its faces grow as they merge: cells for their size */
+        if (rt->own.alive < rt->own.built / 2 && own_grid_build(s, &rt->own)) goto oom;
+    }
+    sc->region = NULL;
+    return;
+oom:
+    sc->oom = 1;
+    rg->failed = 1;
+    sc->region = NULL;
+}
+
+typedef struct region_job {
+    sim *s;
+    region *regions;
+    const uint32_t *order; /* the order threads take them in */
+    uint32_t count;
+    atomic_uint next;
+    region_thread *threads;
+} region_job;
+
+typedef struct region_worker_arg {
+    region_job *job;
+    uint32_t thread;
+} region_worker_arg;
+
+static void *region_worker(void *p)
+{
+    region_worker_arg *a = p;
+    region_job *job = a->job;
+    for (;;) {
+        const uint32_t k = atomic_fetch_add_explicit(&job->next, 1, memory_order_relaxed);
+        if (k >= job->count) return NULL;
+        region_run(job->s, &job->regions[job->order[k]], a->thread, &job->threads[a->thread]);
+    }
+}
+
+/* One round: partition, the regions on all cores (the largest first, for
+ * the balance: the order changes nothing else), then their results gathered
+ * in region order. Returns the commits, or -1 on failure (out of memory, or
+ * a broken invariant). */
+static long region_round(sim *s)
+{
+    const double t0 = lp_seconds();
+    if (merge_clusters(s)) return -1;
+    const uint32_t size = s->region_vertices ? s->region_vertices : REGION_SIZE;
+    region *regions = NULL;
+    const long parts = region_partition(s, &regions, size, (int)(s->rounds % 2));
+    if (parts < 0) return s->serial.oom = 1, -1;
+    /* the invariant checker reads the whole mesh: one thread then (the
+     * same result) */
+    const uint32_t threads = s->verify ? 1 : s->thread_count;
+    region_thread rt[MAX_THREADS];
+    memset(rt, 0, sizeof rt);
+    /* the faces no region owns stay as they are this round */
+    facegrid shared;
+    memset(&shared, 0, sizeof shared);
+    u32vec shared_faces = {0};
+    int oom = 0;
+    for (uint32_t f = 0; f < s->nf && !oom; ++f)
+        if (s->face_alive[f] && s->face_owner[f] == REGION_SHARED) oom = u32_push(&shared_faces, f);
+    if (!oom) oom = grid_fill(s, &shared, shared_faces.data, shared_faces.size, 0, s->nf) < 0;
+    free(shared_faces.data);
+    if (oom) {
+        facegrid_free(&shared);
+        free(regions);
+        return s->serial.oom = 1, -1;
+    }
+    uint32_t *order = malloc(((size_t)parts + 1) * sizeof *order);
+    if (!order) {
+        facegrid_free(&shared);
+        free(regions);
+        return s->serial.oom = 1, -1;
+    }
+    for (long k = 0; k < parts; ++k) {
+        regions[k].clock = s->commit_clock;
+        regions[k].shared = &shared;
+        /* by size, larger first (insertion: a few hundred regions) */
+        long at = k;
+        for (; at > 0 && regions[order[at - 1]].end - regions[order[at - 1]].begin < regions[k].end - regions[k].begin;
+             --at)
+            order[at] = order[at - 1];
+        order[at] = (uint32_t)k;
+    }
+    region_job job = {s, regions, order, (uint32_t)parts, 0, rt};
+    atomic_init(&job.next, 0);
+    region_worker_arg args[MAX_THREADS];
+    pthread_t tid[MAX_THREADS];
+    uint32_t started = 1;
+    for (; started < threads; ++started) {
+        args[started] = (region_worker_arg){&job, started};
+        if (pthread_create(&tid[started], NULL, region_worker, &args[started]) != 0) break;
+    }
+    args[0] = (region_worker_arg){&job, 0};
+    region_worker(&args[0]);
+    for (uint32_t t = 1; t < started; ++t) pthread_join(tid[t], NULL);
+    long commits = 0;
+    int failed = 0;
+    uint32_t clock = s->commit_clock;
+    simplify_stats *st = s->stats;
+    for (long k = 0; k < parts; ++k) {
+        const region *rg = &regions[k];
+        failed |= rg->failed;
+        commits += (long)rg->stats.commits;
+        s->faces_alive -= rg->faces_died;
+        if (rg->clock > clock) clock = rg->clock;
+        st->candidates += rg->stats.candidates;
+        st->attempts += rg->stats.attempts;
+        st->commits += rg->stats.commits;
+        st->deferred += rg->stats.deferred;
+        st->cluster_splits += rg->stats.cluster_splits;
+        for (int r = 0; r < SIMPLIFY_REJECT_COUNT; ++r) st->rejected[r] += rg->stats.rejected[r];
+        st->region_commits += rg->stats.commits;
+    }
+    s->commit_clock = clock;
+    facegrid_free(&shared);
+    free(order);
+    /* the deferred ones are candidates again in the next round */
+    for (uint32_t t = 0; t < threads; ++t) {
+        for (size_t i = 0; i < rt[t].deferred.size; ++i) s->reject_stamp[rt[t].deferred.data[i]] = NONE;
+        region_thread_free(&rt[t]);
+    }
+    free(regions);
+    s->rounds++;
+    st->rounds++;
+    st->seconds_regions += lp_seconds() - t0;
+    return failed ? -1 : commits;
+}
+
+/* The region phase of a level: rounds while there are enough vertices for
+ * several regions and a round still removes a good share of them. Returns
+ * 0, or -1 on failure. */
+static int region_phase(sim *s)
+{
+    if (!s->region_of) {
+        s->spatial = malloc(((size_t)s->nv + 1) * sizeof *s->spatial);
+        s->region_of = malloc(((size_t)s->nv + 1) * sizeof *s->region_of);
+        s->face_owner = malloc(((size_t)s->nf + 1) * sizeof *s->face_owner);
+        s->interior = malloc((size_t)s->nv + 1);
+        s->queued = calloc((size_t)s->nv + 1, sizeof *s->queued);
+        if (!s->spatial || !s->region_of || !s->face_owner || !s->interior || !s->queued)
+            return s->serial.oom = 1, -1;
+        for (uint32_t v = 0; v < s->nv; ++v) s->spatial[v] = v;
+        s->spatial_count = s->nv;
+    }
+    const uint32_t size = s->region_vertices ? s->region_vertices : REGION_SIZE, rounds_before = s->rounds;
+    for (;;) {
+        uint32_t alive = 0;
+        for (uint32_t i = 0; i < s->spatial_count; ++i) alive += s->vertex_alive[s->spatial[i]];
+        if (alive < (uint64_t)REGION_MIN_REGIONS * size) break;
+        const long commits = region_round(s);
+        if (commits < 0) return -1;
+        if ((uint64_t)commits * REGION_STOP < alive) break;
+    }
+    /* the global passes' grid, for the faces as they are now */
+    if (s->rounds != rounds_before && grid_rebuild(s)) return s->serial.oom = 1, -1;
+    return 0;
 }
 
 /* ---- vertex removal with a chosen triangulation of the hole --------------------- */
@@ -1918,7 +2665,7 @@ static int removal_try(sim *s, const removal *rm, const holefill *t)
         else gridlog_remove(&s->grid_log, rm->face[i]);
     }
     if (gridlog_finish(&s->grid_log)) return sc->oom = 1, -1;
-    commit_records(s, &c);
+    commit_records(s, &c, s->stats);
     /* u's quadric goes to its nearest ring vertex (the costs only order
      * candidates) */
     double pu[3], best = INFINITY;
@@ -1933,7 +2680,7 @@ static int removal_try(sim *s, const removal *rm, const holefill *t)
     retire_vertex(s, rm->u, rm->ring[nearest]);
     for (uint32_t i = 0; i < n; ++i) {
         prune_corner_list(s, rm->ring[i]);
-        stamp_changes(s, rm->ring[i]);
+        stamp_changes(s, rm->ring[i], &s->commit_clock);
     }
     s->stats->removals++;
     if (s->verify && verify_after_commit(s, &c) != 0) return -1;
@@ -1968,12 +2715,12 @@ static long removal_pass(sim *s)
             continue;
         }
         removal_costs(s, rm);
-        const uint32_t count = holefill_all(&rm->hole, all);
-        uint32_t tried = 0;
-        for (uint32_t k = 0; k < count && tried < REMOVE_TRIED; ++k) {
-            if (!removal_degrees(s, rm, &all[k]) || !removal_near(rm, &all[k])) continue;
+        uint32_t left = holefill_heap(&rm->hole, all), tried = 0;
+        while (left > 0 && tried < REMOVE_TRIED) {
+            const holefill *t = holefill_pop(all, &left);
+            if (!removal_degrees(s, rm, t) || !removal_near(rm, t)) continue;
             tried++;
-            const int r = removal_try(s, rm, &all[k]);
+            const int r = removal_try(s, rm, t);
             if (r < 0) {
                 removed = -1;
                 goto out;
@@ -2040,9 +2787,14 @@ static void sim_free(sim *s)
     free(s->vertex_first);
     free(s->vertex_alive);
     free(s->movable);
-    free(s->batch_faces.data);
-    free(s->batch_star_end.data);
-    free(s->batch_star_box.data);
+    free(s->batch_stars.faces.data);
+    free(s->batch_stars.end.data);
+    free(s->batch_stars.box.data);
+    free(s->region_of);
+    free(s->face_owner);
+    free(s->spatial);
+    free(s->interior);
+    free(s->queued);
     free(s->change_stamp);
     free(s->reject_stamp);
     free(s->removal_stamp);
@@ -2054,6 +2806,7 @@ static void sim_free(sim *s)
     free(s->special);
     registry_free(&s->reg);
     cert_original_free(&s->orig);
+
     for (uint32_t t = 0; t <= MAX_THREADS; ++t) {
         scratch *sc = t < MAX_THREADS ? &s->scratch[t] : &s->serial;
         free(sc->faces_u.data);
@@ -2090,6 +2843,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     s->flip_cos = o->flip_cos;
     s->verify = o->verify;
     s->full_edge_levels = o->full_edge_levels;
+    s->region_vertices = o->region_vertices;
     s->positions = w->positions;
     if (o->full_edge_levels) {
         s->moved_positions = malloc((3 * (size_t)nv + 1) * sizeof *s->moved_positions);
@@ -2161,7 +2915,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     const size_t units = (size_t)nf + clusters;
     s->unit_bound = calloc(units + 1, sizeof *s->unit_bound);
     s->unit_stamp = calloc(units + 1, sizeof *s->unit_stamp);
-    s->cluster_dirty = malloc((size_t)clusters + 1);
+    s->cluster_dirty = malloc(((size_t)clusters + 1) * sizeof *s->cluster_dirty);
     if (!s->unit_bound || !s->unit_stamp || !s->cluster_dirty) return -1;
     if (registry_init(&s->reg, nf, s->orig.cluster_of, clusters)) return -1;
     return 0;
@@ -2284,9 +3038,15 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
         level->eps = s->eps;
         memset(s->reject_stamp, 0xff, (size_t)w->vertex_count * sizeof *s->reject_stamp);
         if (s->removal_stamp) memset(s->removal_stamp, 0xff, (size_t)w->vertex_count * sizeof *s->removal_stamp);
-        memset(s->cluster_dirty, 1, s->orig.cluster_count); /* a larger eps may hold more of them whole */
+        for (uint32_t c = 0; c < s->orig.cluster_count; ++c) /* a larger eps may hold more of them whole */
+            atomic_store_explicit(&s->cluster_dirty[c], 1, memory_order_relaxed);
         if (level_structures(s)) {
             rc = lp_fail(err, LP_INVALID, "out of memory");
+            goto done;
+        }
+        if (s->eps > 0.0 && region_phase(s)) {
+            if (s->verify_failed) rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);
+            else rc = lp_fail(err, LP_INVALID, "out of memory while simplifying");
             goto done;
         }
         /* a mesh whose diagonal is zero (or eps zero) has nothing to remove */

@@ -21,6 +21,19 @@
  * order, so the result does not depend on the thread count. A rejected
  * candidate is retried only after its neighbourhood changes.
  *
+ * Region rounds. A level of a large mesh begins with rounds in which the
+ * alive vertices are cut into the cells of a cubic grid (regions of about
+ * 4,096 vertices) and each region is simplified by one thread on its own:
+ * its interior vertices (those whose 2-ball lies in it) in cost order from a
+ * priority queue, each candidate evaluated exactly as in the passes and
+ * committed at once, up to three quarters of them; the next round shifts
+ * the grid by half a cell. A region changes only the faces it owns (all
+ * three vertices in it) and defers a candidate that would need anything
+ * else; faces of other regions lie in other cells and cannot cross its
+ * faces. The regions of a round are independent, so the result does not
+ * depend on which thread runs which, nor on the thread count. The passes
+ * then finish the level.
+ *
  * Vertex removal (Cohen et al.). When the passes have converged, each
  * interior vertex whose ring has 4 to 10 corners, one primitive and no seam
  * is removed with another triangulation of its hole than a collapse's fan
@@ -55,6 +68,7 @@ typedef struct simplify_options {
     int verify;               /* re-check the invariants after every commit (slow) */
     int strict_intersections; /* self-intersection test everywhere, not only where the original is thin */
     uint32_t full_edge_levels;/* bit k: level k may use full-edge placement (0: half-edge only) */
+    uint32_t region_vertices; /* vertices per region of the region rounds (0: the default; for tests) */
 } simplify_options;
 
 enum {
@@ -88,6 +102,13 @@ typedef struct simplify_stats {
      * each round of passes) */
     uint64_t removals;
     double seconds_removal;
+    /* region rounds (simplify.c) run at the level's start, the commits made
+     * in them (also counted in commits), the candidates a region left to a
+     * later round or to the global passes (counted again when tried again),
+     * and their time */
+    uint32_t rounds;
+    uint64_t region_commits, deferred;
+    double seconds_regions;
 } simplify_stats;
 
 typedef struct simplify_level {

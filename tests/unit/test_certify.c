@@ -617,6 +617,61 @@ static void test_thin_plate_cover(void)
     om_free(&m);
 }
 
+/* cert_face's first test: a face whose corners are original vertices, at
+ * their place, is within its enclosing ball's radius of them; only when a
+ * witness (same material, normal the face's way) lies at every corner. */
+static void test_corner_ball(void)
+{
+    /* a small down-facing square (0.1 wide) under an up-facing sheet 0.2 above */
+    orig_mesh m;
+    om_init(&m, 8, 4);
+    om_vertex(&m, 0, 0, 0);
+    om_vertex(&m, 0.1, 0, 0);
+    om_vertex(&m, 0.1, 0.1, 0);
+    om_vertex(&m, 0, 0.1, 0);
+    om_vertex(&m, -1, -1, 0.2);
+    om_vertex(&m, 1, -1, 0.2);
+    om_vertex(&m, 1, 1, 0.2);
+    om_vertex(&m, -1, 1, 0.2);
+    om_tri(&m, 0, 2, 1, 0); /* down */
+    om_tri(&m, 0, 3, 2, 0);
+    om_tri(&m, 4, 5, 6, 0); /* up */
+    om_tri(&m, 4, 6, 7, 0);
+    if (!om_ready(&m)) return;
+    double bound;
+    /* an up face on corners 0, 1, 2: its ball's radius (0.0707) is within eps
+     * (0.1), but every original at those corners faces down, and the nearest
+     * up-facing original is 0.2 away: refused */
+    cert_tri f = make_face(om_point(&m, 0), om_point(&m, 1), om_point(&m, 2), 0, 0);
+    f.vertex[0] = 0, f.vertex[1] = 1, f.vertex[2] = 2;
+    CHECK(!cert_face(&m.o, &f, 0.1, &bound), "up face on down corners certified with bound %.17g", bound);
+    /* the same corners facing down vouch for the face: bound = the radius */
+    f = make_face(om_point(&m, 0), om_point(&m, 2), om_point(&m, 1), 0, 0);
+    f.vertex[0] = 0, f.vertex[1] = 2, f.vertex[2] = 1;
+    vec3d c, p[3];
+    double r;
+    face_points(&f, p);
+    geom_triangle_enclosing_ball(&p[0], &p[1], &p[2], &c, &r);
+    int ok = cert_face(&m.o, &f, 0.1, &bound);
+    CHECK(ok && bound == r, "down face on down corners: certified %d, bound %.17g, radius %.17g", ok, bound, r);
+    if (ok) {
+        const double sampled = sampled_face_to_original(&m, p, 24, 0, f.n);
+        CHECK(sampled <= bound + slack(1.0), "sampled %.17g > bound %.17g", sampled, bound);
+    }
+    /* a radius beyond eps: the other tests decide (the face lies on the square) */
+    ok = cert_face(&m.o, &f, 0.05, &bound);
+    CHECK(ok && bound < 1e-6, "radius 0.0707 > eps 0.05: certified %d against the square itself, bound %.17g", ok, bound);
+    /* a corner moved off its vertex (as placement moves one) is no point of the
+     * original: the radius is not used */
+    f = make_face(om_point(&m, 0), om_point(&m, 2), geom_vec3d(0.1, 1e-3, 0.0), 0, 0);
+    f.vertex[0] = 0, f.vertex[1] = 2, f.vertex[2] = 1;
+    face_points(&f, p);
+    geom_triangle_enclosing_ball(&p[0], &p[1], &p[2], &c, &r);
+    ok = cert_face(&m.o, &f, 0.1, &bound);
+    CHECK(ok && bound < 1e-6, "moved corner: certified %d, bound %.17g (radius %.17g)", ok, bound, r);
+    om_free(&m);
+}
+
 /* ---- materials, degenerate and odd input ---------------------------------------- */
 
 static void test_material_and_degenerate(void)
@@ -1004,6 +1059,7 @@ int main(void)
     RUN(test_cover_fuzz);
     RUN(test_thin_plate_face);
     RUN(test_thin_plate_cover);
+    RUN(test_corner_ball);
     RUN(test_material_and_degenerate);
     RUN(test_translated_far);
     RUN(test_overlay_cover);

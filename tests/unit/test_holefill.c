@@ -111,6 +111,14 @@ static void test_costs(void)
         CHECK(count == catalan[n - 2], "n %u: %u", n, count);
         check_all(&p, h, count);
         CHECK(holefill_all(&p, again) == count && memcmp(h, again, count * sizeof *h) == 0, "n %u: not repeatable", n);
+        /* the heap hands out the same list in the same order */
+        uint32_t left = holefill_heap(&p, again), at = 0;
+        CHECK(left == count, "n %u: heap of %u, list of %u", n, left, count);
+        while (left > 0 && at < count) {
+            const holefill *next = holefill_pop(again, &left);
+            CHECK(memcmp(next, &h[at], sizeof *next) == 0, "n %u: pop %u differs from the sorted list", n, at);
+            at++;
+        }
     }
 }
 

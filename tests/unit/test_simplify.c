@@ -141,6 +141,9 @@ static double now(void)
 
 /* simplify_options.full_edge_levels for the next run_simplify calls */
 static uint32_t g_full_edge_levels;
+/* simplify_options.region_vertices likewise: 0 leaves these small meshes
+ * to the global passes; a small size sends them through region rounds */
+static uint32_t g_region_vertices;
 
 /* Welds m (one primitive, material 0, positions only) and simplifies it
  * through fractions[0..count-1]. Returns the simplify_mesh result code. */
@@ -189,14 +192,23 @@ static int run_simplify(run *rn, const mesh *m, const double *fractions, uint32_
     o.flip_cos = 0.25;
     o.verify = verify;
     o.full_edge_levels = g_full_edge_levels;
+    o.region_vertices = g_region_vertices;
     int64_t material[2] = {rn->prim[0].material, rn->prim[1].material};
     double t0 = now();
     rc = simplify_mesh(&rn->w, material, &o, &rn->r, &err);
     rn->seconds = now() - t0;
     CHECK(rc == LP_OK, "simplify_mesh: rc %d: %s", rc, err.msg);
     if (rc == LP_OK) rn->simplified = 1;
-    printf("#   simplify_mesh: %u triangles, %u levels, %u threads, verify %d, full-edge levels 0x%x: %.2f s\n", m->nt,
-           count, threads, verify, g_full_edge_levels, rn->seconds);
+    uint64_t region_commits = 0;
+    for (uint32_t k = 0; rc == LP_OK && k < rn->r.level_count; ++k) region_commits += rn->r.levels[k].stats.region_commits;
+    printf("#   simplify_mesh: %u triangles, %u levels, %u threads, verify %d, full-edge levels 0x%x, regions of %u "
+           "(%llu commits in them): %.2f s\n", m->nt, count, threads, verify, g_full_edge_levels, g_region_vertices,
+           (unsigned long long)region_commits, rn->seconds);
+    /* with small regions every mesh of these tests goes through them */
+    if (rc == LP_OK && g_region_vertices && rn->w.vertex_count >= 8 * g_region_vertices)
+        CHECK(rn->r.levels[0].stats.rounds > 0 && region_commits > 0,
+              "%u vertices, regions of %u: %u rounds, %llu commits in them", rn->w.vertex_count, g_region_vertices,
+              rn->r.levels[0].stats.rounds, (unsigned long long)region_commits);
     fflush(stdout);
     return rc;
 }
@@ -1168,6 +1180,43 @@ static void test_thin_plate_no_self_intersection(void)
     }
 }
 
+/* A closed shell of two wavy sheets t apart (the box above with both
+ * sheets lifted by the same bumps), thin everywhere against eps: through
+ * region rounds of many sizes, so that region boundaries cross it in many
+ * places, no level may have its top sheet cut through its bottom one. A
+ * region skips other regions' faces in its crossing test (their cells are
+ * apart) but must test the faces shared across its boundary. */
+static void test_wavy_shell_regions(void)
+{
+    static const uint32_t sizes[] = {32, 48, 64, 96, 128, 160};
+    const uint32_t saved = g_region_vertices;
+    for (size_t c = 0; c < sizeof sizes / sizeof *sizes; ++c) {
+        mesh m;
+        mesh_init(&m);
+        const uint32_t n = 24;
+        const double size = 10.0, t = 0.05;
+        build_box(&m, n, size, t);
+        for (uint32_t v = 0; v < m.nv; ++v) {
+            const double x = m.pos[3 * v], y = m.pos[3 * v + 1];
+            m.pos[3 * v + 2] += (float)(0.6 * sin(x * 1.3) * sin(y * 1.1 + 0.4));
+        }
+        g_region_vertices = sizes[c];
+        const double fractions[4] = {0.004, 0.012, 0.028, 0.06};
+        run rn;
+        if (run_simplify(&rn, &m, fractions, 4, 2, 0) == LP_OK) {
+            check_topology("wavy shell", &rn, 2, 0);
+            for (uint32_t k = 0; k < rn.r.level_count; ++k) {
+                uint32_t ex[2], bad = self_intersections(&rn, k, ex);
+                CHECK(bad == 0, "wavy shell, regions of %u: level %u (%u triangles) has %u intersecting face pairs, e.g. "
+                      "%u and %u", sizes[c], k, rn.r.levels[k].triangle_count, bad, ex[0], ex[1]);
+            }
+        }
+        run_free(&rn);
+        mesh_free(&m);
+    }
+    g_region_vertices = saved;
+}
+
 /* ---- sawtooth border ---------------------------------------------------------- */
 
 static double saw_y(uint32_t i, double h)
@@ -1737,5 +1786,22 @@ int main(void)
     RUN(test_verify_mode);
     RUN(test_optimal_placement);
     RUN(test_removal);
+    /* Every case again through region rounds (simplify.c: each region
+     * simplified on its own, in parallel): regions of 64 vertices, so that
+     * these small meshes have many regions and boundaries run everywhere. */
+    g_region_vertices = 64;
+    RUN(test_spike_and_pit);
+    RUN(test_v_groove);
+    RUN(test_thin_plate);
+    RUN(test_thin_plate_no_self_intersection);
+    RUN(test_sawtooth_border);
+    RUN(test_materials);
+    RUN(test_euler_closed);
+    RUN(test_translated_1e5);
+    RUN(test_thread_count_invariance);
+    RUN(test_verify_mode);
+    RUN(test_optimal_placement);
+    RUN(test_removal);
+    RUN(test_wavy_shell_regions);
     return check_summary();
 }
