@@ -395,9 +395,13 @@ static int write_obj(const char *path, const weld_result *w, const obj_vertex_li
     size_t size = 0;
     FILE *f = open_memstream(&buf, &size);
     int bad = !f;
-    for (uint32_t v = 0; v < w->vertex_count && !bad; ++v) {
-        const float *p = positions ? positions + 3 * (size_t)v : NULL;
-        if (p && memcmp(p, w->positions + 3 * (size_t)v, 3 * sizeof *p) != 0) {
+    if (!positions && !bad) { /* every vertex where the weld put it: the lines as formatted */
+        const size_t n = lines->line[w->vertex_count];
+        bad = fwrite(lines->text, 1, n, f) != n;
+    }
+    for (uint32_t v = 0; positions && v < w->vertex_count && !bad; ++v) {
+        const float *p = positions + 3 * (size_t)v;
+        if (memcmp(p, w->positions + 3 * (size_t)v, 3 * sizeof *p) != 0) {
             bad = format_vertex(f, p);
             continue;
         }
@@ -405,17 +409,22 @@ static int write_obj(const char *path, const weld_result *w, const obj_vertex_li
         bad = fwrite(lines->text + lines->line[v], 1, n, f) != n;
     }
     for (uint32_t t = 0; t < face_count && !bad; ++t) {
-        uint32_t a, b, c;
-        if (face_vertices) {
-            a = face_vertices[3 * (size_t)t];
-            b = face_vertices[3 * (size_t)t + 1];
-            c = face_vertices[3 * (size_t)t + 2];
-        } else {
-            a = w->wedge_vertex[face_wedges[3 * (size_t)t]];
-            b = w->wedge_vertex[face_wedges[3 * (size_t)t + 1]];
-            c = w->wedge_vertex[face_wedges[3 * (size_t)t + 2]];
+        uint32_t corner[3];
+        for (int k = 0; k < 3; ++k)
+            corner[k] = face_vertices ? face_vertices[3 * (size_t)t + k] : w->wedge_vertex[face_wedges[3 * (size_t)t + k]];
+        /* "f a b c\n", 1-based, formatted by hand (fprintf was most of the
+         * time of writing a large level 0) */
+        char line[40], *at = line;
+        *at++ = 'f';
+        for (int k = 0; k < 3; ++k) {
+            char digits[12];
+            int nd = 0;
+            for (uint64_t x = (uint64_t)corner[k] + 1; x; x /= 10) digits[nd++] = (char)('0' + x % 10);
+            *at++ = ' ';
+            while (nd) *at++ = digits[--nd];
         }
-        bad = fprintf(f, "f %u %u %u\n", a + 1, b + 1, c + 1) < 0;
+        *at++ = '\n';
+        bad = fwrite(line, 1, (size_t)(at - line), f) != (size_t)(at - line);
     }
     if (!f || fclose(f) || bad) {
         free(buf);
