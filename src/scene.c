@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "accessor.h"
+#include "radix.h"
 
 static void warn(scene *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void warn(scene *s, const char *fmt, ...)
@@ -374,41 +375,24 @@ static void sort3(uint32_t k[3])
 }
 
 /* duplicate_triangles when every vertex number fits 21 bits: each triangle's
- * sorted corners packed in one 64-bit key, the keys sorted by radix (16 bits
- * a pass; glibc's qsort with a comparison function was about 0.4 s of loading
- * a 1.1M-triangle mesh). Returns 0 when the scratch cannot be allocated. */
+ * sorted corners packed in one 64-bit key, the keys sorted by radix (glibc's
+ * qsort with a comparison function was about 0.4 s of loading a
+ * 1.1M-triangle mesh). Returns 0 when the scratch cannot be allocated. */
 static uint32_t duplicate_triangles_packed(const scene_primitive *p)
 {
     const uint32_t n = p->triangle_count;
-    uint64_t *key = malloc(((size_t)n + 1) * sizeof *key), *tmp = malloc(((size_t)n + 1) * sizeof *tmp);
-    uint32_t *count = malloc(65536 * sizeof *count);
+    uint64_t *key = malloc(((size_t)n + 1) * sizeof *key);
     uint32_t duplicates = 0;
-    if (key && tmp && count) {
-        for (uint32_t t = 0; t < n; ++t) {
-            uint32_t k[3];
-            memcpy(k, p->triangles + 3 * (size_t)t, sizeof k);
-            sort3(k);
-            key[t] = (uint64_t)k[0] << 42 | (uint64_t)k[1] << 21 | k[2];
-        }
-        for (int shift = 0; shift < 64; shift += 16) {
-            memset(count, 0, 65536 * sizeof *count);
-            for (uint32_t t = 0; t < n; ++t) count[(key[t] >> shift) & 65535]++;
-            uint32_t at = 0;
-            for (uint32_t b = 0; b < 65536; ++b) {
-                const uint32_t c = count[b];
-                count[b] = at;
-                at += c;
-            }
-            for (uint32_t t = 0; t < n; ++t) tmp[count[(key[t] >> shift) & 65535]++] = key[t];
-            uint64_t *x = key;
-            key = tmp;
-            tmp = x;
-        }
-        for (uint32_t t = 1; t < n; ++t) duplicates += key[t] == key[t - 1];
+    if (!key) return 0;
+    for (uint32_t t = 0; t < n; ++t) {
+        uint32_t k[3];
+        memcpy(k, p->triangles + 3 * (size_t)t, sizeof k);
+        sort3(k);
+        key[t] = (uint64_t)k[0] << 42 | (uint64_t)k[1] << 21 | k[2];
     }
+    if (!radix_sort_u64(key, NULL, n, UINT64_MAX >> 1))
+        for (uint32_t t = 1; t < n; ++t) duplicates += key[t] == key[t - 1];
     free(key);
-    free(tmp);
-    free(count);
     return duplicates;
 }
 

@@ -36,6 +36,7 @@
 #include "intersect.h"
 #include "keymap.h"
 #include "quadric.h"
+#include "radix.h"
 #include "registry.h"
 #include "thin.h"
 
@@ -1922,31 +1923,6 @@ static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
 
 enum { VERTEX_CORE = 1, VERTEX_INTERIOR = 2 };
 
-/* Sorts ids[0 .. n) by key (stable: least significant byte first, as many
- * bytes as max_key needs), with tmp_key and tmp_id as room. */
-static void radix_sort_keys(uint64_t *key, uint32_t *ids, uint64_t *tmp_key, uint32_t *tmp_id, uint32_t n,
-                            uint64_t max_key)
-{
-    size_t count[256];
-    for (int shift = 0; shift < 64 && (max_key >> shift); shift += 8) {
-        memset(count, 0, sizeof count);
-        for (uint32_t i = 0; i < n; ++i) count[(key[i] >> shift) & 255]++;
-        size_t at = 0;
-        for (int b = 0; b < 256; ++b) {
-            const size_t c = count[b];
-            count[b] = at;
-            at += c;
-        }
-        for (uint32_t i = 0; i < n; ++i) {
-            const size_t to = count[(key[i] >> shift) & 255]++;
-            tmp_key[to] = key[i];
-            tmp_id[to] = ids[i];
-        }
-        memcpy(key, tmp_key, (size_t)n * sizeof *key);
-        memcpy(ids, tmp_id, (size_t)n * sizeof *ids);
-    }
-}
-
 /* Each vertex's cell of side `cell` (shifted by half a cell when shifted),
  * numbered x fastest, into key[] for spatial[0 .. n); returns the largest. */
 static uint64_t cell_keys(const sim *s, uint32_t n, const double lo[3], const double hi[3], double cell, int shifted,
@@ -1990,14 +1966,8 @@ static long region_partition(sim *s, region **regions, uint32_t size, int shifte
             lo[a] = geom_fmin(lo[a], s->positions[3 * (size_t)s->spatial[i] + a]);
             hi[a] = geom_fmax(hi[a], s->positions[3 * (size_t)s->spatial[i] + a]);
         }
-    uint64_t *key = malloc(((size_t)n + 1) * sizeof *key), *tmp_key = malloc(((size_t)n + 1) * sizeof *tmp_key);
-    uint32_t *tmp_id = malloc(((size_t)n + 1) * sizeof *tmp_id);
-    if (!key || !tmp_key || !tmp_id) {
-        free(key);
-        free(tmp_key);
-        free(tmp_id);
-        return -1;
-    }
+    uint64_t *key = malloc(((size_t)n + 1) * sizeof *key);
+    if (!key) return -1;
     double extent = 0.0;
     for (int a = 0; a < 3; ++a) extent = geom_fmax(extent, hi[a] - lo[a]);
     if (!(extent > 0.0) || !isfinite(extent)) extent = 1.0;
@@ -2010,7 +1980,10 @@ static long region_partition(sim *s, region **regions, uint32_t size, int shifte
         cell = extent / 32.0;
         for (int tries = 0; tries < 4; ++tries) {
             const uint64_t max_key = cell_keys(s, n, lo, hi, cell, 0, key);
-            radix_sort_keys(key, s->spatial, tmp_key, tmp_id, n, max_key);
+            if (radix_sort_u64(key, s->spatial, n, max_key)) {
+                free(key);
+                return -1;
+            }
             uint32_t cells = n ? 1 : 0;
             for (uint32_t i = 1; i < n; ++i) cells += key[i] != key[i - 1];
             const double mean = cells ? (double)n / cells : 1.0;
@@ -2024,14 +1997,14 @@ static long region_partition(sim *s, region **regions, uint32_t size, int shifte
         cell = s->region_cell * sqrt((double)s->region_alive0 / (n ? n : 1));
     }
     const uint64_t max_key = cell_keys(s, n, lo, hi, cell, shifted, key);
-    radix_sort_keys(key, s->spatial, tmp_key, tmp_id, n, max_key);
     uint32_t parts = n ? 1 : 0;
-    for (uint32_t i = 1; i < n; ++i) parts += key[i] != key[i - 1];
-    region *r = calloc((size_t)parts + 1, sizeof *r);
+    region *r = NULL;
+    if (!radix_sort_u64(key, s->spatial, n, max_key)) {
+        for (uint32_t i = 1; i < n; ++i) parts += key[i] != key[i - 1];
+        r = calloc((size_t)parts + 1, sizeof *r);
+    }
     if (!r) {
         free(key);
-        free(tmp_key);
-        free(tmp_id);
         return -1;
     }
     uint32_t k = 0;
@@ -2045,8 +2018,6 @@ static long region_partition(sim *s, region **regions, uint32_t size, int shifte
     }
     if (n) r[k].end = n;
     free(key);
-    free(tmp_key);
-    free(tmp_id);
     for (uint32_t f = 0; f < s->nf; ++f) {
         if (!s->face_alive[f]) continue;
         const uint32_t *cv = s->corner_vertex + 3 * (size_t)f, a = s->region_of[cv[0]];

@@ -1772,7 +1772,7 @@ static void test_optimal_placement(void)
     mesh_free(&m);
 }
 
-int main(void)
+static void run_cases(void)
 {
     RUN(test_spike_and_pit);
     RUN(test_v_groove);
@@ -1786,22 +1786,16 @@ int main(void)
     RUN(test_verify_mode);
     RUN(test_optimal_placement);
     RUN(test_removal);
+}
+
+int main(void)
+{
+    run_cases();
     /* Every case again through region rounds (simplify.c: each region
      * simplified on its own, in parallel): regions of 64 vertices, so that
      * these small meshes have many regions and boundaries run everywhere. */
     g_region_vertices = 64;
-    RUN(test_spike_and_pit);
-    RUN(test_v_groove);
-    RUN(test_thin_plate);
-    RUN(test_thin_plate_no_self_intersection);
-    RUN(test_sawtooth_border);
-    RUN(test_materials);
-    RUN(test_euler_closed);
-    RUN(test_translated_1e5);
-    RUN(test_thread_count_invariance);
-    RUN(test_verify_mode);
-    RUN(test_optimal_placement);
-    RUN(test_removal);
+    run_cases();
     RUN(test_wavy_shell_regions);
     return check_summary();
 }
