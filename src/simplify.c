@@ -1049,8 +1049,10 @@ typedef struct batch_job {
     atomic_int closed;       /* published is final */
 } batch_job;
 
+/* What a worker thread is given: its job (a batch_job, or a region_job) and
+ * its number, which picks its scratch. */
 typedef struct worker_arg {
-    batch_job *job;
+    void *job;
     uint32_t thread;
 } worker_arg;
 
@@ -2264,14 +2266,9 @@ typedef struct region_job {
     region_thread *threads;
 } region_job;
 
-typedef struct region_worker_arg {
-    region_job *job;
-    uint32_t thread;
-} region_worker_arg;
-
 static void *region_worker(void *p)
 {
-    region_worker_arg *a = p;
+    worker_arg *a = p;
     region_job *job = a->job;
     for (;;) {
         const uint32_t k = atomic_fetch_add_explicit(&job->next, 1, memory_order_relaxed);
@@ -2329,14 +2326,14 @@ static long region_round(sim *s)
     }
     region_job job = {s, regions, order, (uint32_t)parts, 0, rt};
     atomic_init(&job.next, 0);
-    region_worker_arg args[MAX_THREADS];
+    worker_arg args[MAX_THREADS];
     pthread_t tid[MAX_THREADS];
     uint32_t started = 1;
     for (; started < threads; ++started) {
-        args[started] = (region_worker_arg){&job, started};
+        args[started] = (worker_arg){&job, started};
         if (pthread_create(&tid[started], NULL, region_worker, &args[started]) != 0) break;
     }
-    args[0] = (region_worker_arg){&job, 0};
+    args[0] = (worker_arg){&job, 0};
     region_worker(&args[0]);
     for (uint32_t t = 1; t < started; ++t) pthread_join(tid[t], NULL);
     long commits = 0;
