@@ -1188,11 +1188,17 @@ typedef struct records {
 static records records_of(const sim *s, const candidate *c)
 {
     const scratch *res = &s->scratch[c->thread];
-    records r;
-    r.units = res->out_u32.data + c->u32_off;
-    r.unit_bounds = res->out_f64.data + c->f64_off;
-    r.changed = r.units + (size_t)c->recheck_count * UNIT_RECORD;
-    r.changed_f64 = r.unit_bounds + c->recheck_count;
+    records r = {NULL, NULL, NULL, NULL};
+    /* A candidate that wrote no records (no unit re-certified, no face
+     * changed) may come from an arena never grown: no offset from NULL. */
+    if (res->out_u32.data) {
+        r.units = res->out_u32.data + c->u32_off;
+        r.changed = r.units + (size_t)c->recheck_count * UNIT_RECORD;
+    }
+    if (res->out_f64.data) {
+        r.unit_bounds = res->out_f64.data + c->f64_off;
+        r.changed_f64 = r.unit_bounds + c->recheck_count;
+    }
     return r;
 }
 
