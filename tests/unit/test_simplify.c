@@ -1217,6 +1217,50 @@ static void test_wavy_shell_regions(void)
     g_region_vertices = saved;
 }
 
+/* A fine hill over a coarse copy of it whose vertices lie t below the
+ * hill: 32 large faces, each reaching across many region cells, so every
+ * one of them is shared in every round. A collapse on the hill cuts below
+ * it (a chord of length L sags by c L^2 / 4 > t for L > 2 sqrt(t / c)), and
+ * over a vertex of the coarse copy that goes right through it: only the
+ * region's query of the shared faces can see that (its own grid holds
+ * none of them): with that query left out, every size below gives levels
+ * with 8 to 44 crossing face pairs. */
+#define HILL_C 0.1
+static double hill_height(uint32_t i, uint32_t j, double x, double y, void *ctx)
+{
+    (void)i, (void)j, (void)ctx;
+    return 5.0 - HILL_C * ((x - 5.0) * (x - 5.0) + (y - 5.0) * (y - 5.0));
+}
+
+static void test_hill_over_coarse_hill_regions(void)
+{
+    /* 0: the default size, too large for this mesh: the passes alone */
+    static const uint32_t sizes[] = {0, 32, 64, 128};
+    const uint32_t saved = g_region_vertices;
+    const double t = 0.01;
+    for (size_t c = 0; c < sizeof sizes / sizeof *sizes; ++c) {
+        mesh m;
+        mesh_init(&m);
+        mesh_grid(&m, 40, 40, 0, 10, 0, 10, hill_height, NULL);
+        const uint32_t under = mesh_grid(&m, 4, 4, 0, 10, 0, 10, hill_height, NULL);
+        for (uint32_t v = under; v < m.nv; ++v) m.pos[3 * v + 2] -= (float)t;
+        g_region_vertices = sizes[c];
+        const double fractions[4] = {0.002, 0.005, 0.01, 0.03};
+        run rn;
+        if (run_simplify(&rn, &m, fractions, 4, 2, 0) == LP_OK) {
+            check_topology("hill over a coarse hill", &rn, 2, 2);
+            for (uint32_t k = 0; k < rn.r.level_count; ++k) {
+                uint32_t ex[2], bad = self_intersections(&rn, k, ex);
+                CHECK(bad == 0, "hill over a coarse hill, regions of %u: level %u (%u triangles) has %u intersecting "
+                      "face pairs, e.g. %u and %u", sizes[c], k, rn.r.levels[k].triangle_count, bad, ex[0], ex[1]);
+            }
+        }
+        run_free(&rn);
+        mesh_free(&m);
+    }
+    g_region_vertices = saved;
+}
+
 /* ---- sawtooth border ---------------------------------------------------------- */
 
 static double saw_y(uint32_t i, double h)
@@ -1797,5 +1841,6 @@ int main(void)
     g_region_vertices = 64;
     run_cases();
     RUN(test_wavy_shell_regions);
+    RUN(test_hill_over_coarse_hill_regions);
     return check_summary();
 }
