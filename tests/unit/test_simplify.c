@@ -1186,35 +1186,44 @@ static void test_thin_plate_no_self_intersection(void)
  * places, no level may have its top sheet cut through its bottom one. A
  * region skips other regions' faces in its crossing test (their cells are
  * apart) but must test the faces shared across its boundary. */
-static void test_wavy_shell_regions(void)
+/* Runs m through region rounds of each size (0: the default size, too
+ * large for these meshes: the passes alone) and checks that no level cuts
+ * through itself and every level keeps the topology. */
+static void check_regions_never_cross(const char *name, const mesh *m, const double *fractions, uint32_t count,
+                                      const uint32_t *sizes, size_t size_count, long euler, long loops)
 {
-    static const uint32_t sizes[] = {32, 48, 64, 96, 128, 160};
     const uint32_t saved = g_region_vertices;
-    for (size_t c = 0; c < sizeof sizes / sizeof *sizes; ++c) {
-        mesh m;
-        mesh_init(&m);
-        const uint32_t n = 24;
-        const double size = 10.0, t = 0.05;
-        build_box(&m, n, size, t);
-        for (uint32_t v = 0; v < m.nv; ++v) {
-            const double x = m.pos[3 * v], y = m.pos[3 * v + 1];
-            m.pos[3 * v + 2] += (float)(0.6 * sin(x * 1.3) * sin(y * 1.1 + 0.4));
-        }
+    for (size_t c = 0; c < size_count; ++c) {
         g_region_vertices = sizes[c];
-        const double fractions[4] = {0.004, 0.012, 0.028, 0.06};
         run rn;
-        if (run_simplify(&rn, &m, fractions, 4, 2, 0) == LP_OK) {
-            check_topology("wavy shell", &rn, 2, 0);
+        if (run_simplify(&rn, m, fractions, count, 2, 0) == LP_OK) {
+            check_topology(name, &rn, euler, loops);
             for (uint32_t k = 0; k < rn.r.level_count; ++k) {
                 uint32_t ex[2], bad = self_intersections(&rn, k, ex);
-                CHECK(bad == 0, "wavy shell, regions of %u: level %u (%u triangles) has %u intersecting face pairs, e.g. "
-                      "%u and %u", sizes[c], k, rn.r.levels[k].triangle_count, bad, ex[0], ex[1]);
+                CHECK(bad == 0, "%s, regions of %u: level %u (%u triangles) has %u intersecting face pairs, e.g. %u and %u",
+                      name, sizes[c], k, rn.r.levels[k].triangle_count, bad, ex[0], ex[1]);
             }
         }
         run_free(&rn);
-        mesh_free(&m);
     }
     g_region_vertices = saved;
+}
+
+static void test_wavy_shell_regions(void)
+{
+    static const uint32_t sizes[] = {32, 48, 64, 96, 128, 160};
+    mesh m;
+    mesh_init(&m);
+    const uint32_t n = 24;
+    const double size = 10.0, t = 0.05;
+    build_box(&m, n, size, t);
+    for (uint32_t v = 0; v < m.nv; ++v) {
+        const double x = m.pos[3 * v], y = m.pos[3 * v + 1];
+        m.pos[3 * v + 2] += (float)(0.6 * sin(x * 1.3) * sin(y * 1.1 + 0.4));
+    }
+    const double fractions[4] = {0.004, 0.012, 0.028, 0.06};
+    check_regions_never_cross("wavy shell", &m, fractions, 4, sizes, sizeof sizes / sizeof *sizes, 2, 0);
+    mesh_free(&m);
 }
 
 /* A fine hill over a coarse copy of it whose vertices lie t below the
@@ -1234,31 +1243,16 @@ static double hill_height(uint32_t i, uint32_t j, double x, double y, void *ctx)
 
 static void test_hill_over_coarse_hill_regions(void)
 {
-    /* 0: the default size, too large for this mesh: the passes alone */
     static const uint32_t sizes[] = {0, 32, 64, 128};
-    const uint32_t saved = g_region_vertices;
     const double t = 0.01;
-    for (size_t c = 0; c < sizeof sizes / sizeof *sizes; ++c) {
-        mesh m;
-        mesh_init(&m);
-        mesh_grid(&m, 40, 40, 0, 10, 0, 10, hill_height, NULL);
-        const uint32_t under = mesh_grid(&m, 4, 4, 0, 10, 0, 10, hill_height, NULL);
-        for (uint32_t v = under; v < m.nv; ++v) m.pos[3 * v + 2] -= (float)t;
-        g_region_vertices = sizes[c];
-        const double fractions[4] = {0.002, 0.005, 0.01, 0.03};
-        run rn;
-        if (run_simplify(&rn, &m, fractions, 4, 2, 0) == LP_OK) {
-            check_topology("hill over a coarse hill", &rn, 2, 2);
-            for (uint32_t k = 0; k < rn.r.level_count; ++k) {
-                uint32_t ex[2], bad = self_intersections(&rn, k, ex);
-                CHECK(bad == 0, "hill over a coarse hill, regions of %u: level %u (%u triangles) has %u intersecting "
-                      "face pairs, e.g. %u and %u", sizes[c], k, rn.r.levels[k].triangle_count, bad, ex[0], ex[1]);
-            }
-        }
-        run_free(&rn);
-        mesh_free(&m);
-    }
-    g_region_vertices = saved;
+    mesh m;
+    mesh_init(&m);
+    mesh_grid(&m, 40, 40, 0, 10, 0, 10, hill_height, NULL);
+    const uint32_t under = mesh_grid(&m, 4, 4, 0, 10, 0, 10, hill_height, NULL);
+    for (uint32_t v = under; v < m.nv; ++v) m.pos[3 * v + 2] -= (float)t;
+    const double fractions[4] = {0.002, 0.005, 0.01, 0.03};
+    check_regions_never_cross("hill over a coarse hill", &m, fractions, 4, sizes, sizeof sizes / sizeof *sizes, 2, 2);
+    mesh_free(&m);
 }
 
 /* ---- sawtooth border ---------------------------------------------------------- */
