@@ -15,17 +15,12 @@
  * for slivers of huge extent (a fuzzed mesh with corners at 1e25 read
  * 3.4e16 where the true distance was at most 0.42). For ordinary meshes it
  * is ~1e-7 of the longest edge. */
-typedef struct rounding {
-    double longest_edge; /* of the triangle set queried */
-    double magnitude;    /* largest absolute coordinate of both sets */
-} rounding;
+typedef struct extent {
+    double longest_edge; /* of its triangles */
+    double magnitude;    /* its largest absolute coordinate */
+} extent;
 
-static double overestimate(const rounding *r, double d)
-{
-    return 4.0 * sqrt(DBL_EPSILON * (d + r->longest_edge) * r->longest_edge) + 16.0 * DBL_EPSILON * r->magnitude;
-}
-
-static void mesh_rounding(const measure_mesh *m, double *longest_edge, double *magnitude)
+static extent extent_of(const measure_mesh *m)
 {
     double longest2 = 0.0, largest = 0.0;
     for (uint32_t t = 0; t < m->triangle_count; ++t) {
@@ -36,12 +31,19 @@ static void mesh_rounding(const measure_mesh *m, double *longest_edge, double *m
             largest = fmax(largest, fmax(fabs(p[k].x), fmax(fabs(p[k].y), fabs(p[k].z))));
         }
     }
-    *longest_edge = sqrt(longest2);
-    *magnitude = largest;
+    return (extent){sqrt(longest2), largest};
 }
 
-static double sample_triangle(const measure_mesh *a, uint32_t t, const bvh *tree, const rounding *r, double spacing,
-                              double worst)
+/* For samples of a measured against b: b's longest edge, and the larger
+ * magnitude of both. */
+static double overestimate(const extent *a, const extent *b, double d)
+{
+    return 4.0 * sqrt(DBL_EPSILON * (d + b->longest_edge) * b->longest_edge) +
+           16.0 * DBL_EPSILON * fmax(a->magnitude, b->magnitude);
+}
+
+static double sample_triangle(const measure_mesh *a, uint32_t t, const bvh *tree, const extent *a_extent,
+                              const extent *b_extent, double spacing, double worst)
 {
     vec3d p[3];
     for (int k = 0; k < 3; ++k) p[k] = geom_vec3d_from_floats(a->positions + 3 * (size_t)a->triangles[3 * (size_t)t + k]);
@@ -57,54 +59,53 @@ static double sample_triangle(const measure_mesh *a, uint32_t t, const bvh *tree
             bvh_hit hit;
             if (bvh_closest(tree, q, INFINITY, &hit)) {
                 double d = sqrt(hit.distance2);
-                d -= overestimate(r, d);
+                d -= overestimate(a_extent, b_extent, d);
                 if (d > worst) worst = d;
             }
         }
     return worst;
 }
 
-/* The rounding of sampling a toward b (b's longest edge, both magnitudes). */
-static rounding rounding_toward(const measure_mesh *a, const measure_mesh *b)
-{
-    double a_edge, a_magnitude;
-    rounding r;
-    mesh_rounding(a, &a_edge, &a_magnitude);
-    mesh_rounding(b, &r.longest_edge, &r.magnitude);
-    r.magnitude = fmax(r.magnitude, a_magnitude);
-    return r;
-}
-
-static double sample_all(const measure_mesh *a, const bvh *b_tree, const rounding *r, double spacing)
+/* max over a's samples of their distance to b (tree over b), less rounding */
+static double sample_all(const measure_mesh *a, const extent *a_extent, const bvh *b_tree, const extent *b_extent,
+                         double spacing)
 {
     double worst = 0.0;
-    for (uint32_t t = 0; t < a->triangle_count; ++t) worst = sample_triangle(a, t, b_tree, r, spacing, worst);
+    for (uint32_t t = 0; t < a->triangle_count; ++t)
+        worst = sample_triangle(a, t, b_tree, a_extent, b_extent, spacing, worst);
+    return worst;
+}
+
+static double one_sided(const measure_mesh *a, const extent *a_extent, const measure_mesh *b, const extent *b_extent,
+                        double spacing)
+{
+    if (b->triangle_count == 0) return -1.0;
+    bvh tree;
+    if (bvh_build(&tree, b->positions, b->vertex_count, b->triangles, b->triangle_count) != BVH_OK) return -1.0;
+    double worst = sample_all(a, a_extent, &tree, b_extent, spacing);
+    bvh_free(&tree);
     return worst;
 }
 
 double measure_one_sided(const measure_mesh *a, const measure_mesh *b, double spacing)
 {
-    if (b->triangle_count == 0) return -1.0;
-    bvh tree;
-    if (bvh_build(&tree, b->positions, b->vertex_count, b->triangles, b->triangle_count) != BVH_OK) return -1.0;
-    const rounding r = rounding_toward(a, b);
-    double worst = sample_all(a, &tree, &r, spacing);
-    bvh_free(&tree);
-    return worst;
+    const extent ea = extent_of(a), eb = extent_of(b);
+    return one_sided(a, &ea, b, &eb, spacing);
 }
 
 double measure_two_sided(const measure_mesh *a, const measure_mesh *b, double spacing)
 {
-    double ab = measure_one_sided(a, b, spacing), ba = measure_one_sided(b, a, spacing);
+    const extent ea = extent_of(a), eb = extent_of(b);
+    double ab = one_sided(a, &ea, b, &eb, spacing), ba = one_sided(b, &eb, a, &ea, spacing);
     if (ab < 0 || ba < 0) return -1.0;
     return ab > ba ? ab : ba;
 }
 
 double measure_two_sided_with(const measure_mesh *a, const bvh *a_tree, const measure_mesh *b, double spacing)
 {
-    double ab = measure_one_sided(a, b, spacing);
+    const extent ea = extent_of(a), eb = extent_of(b);
+    double ab = one_sided(a, &ea, b, &eb, spacing);
     if (ab < 0 || a->triangle_count == 0) return -1.0;
-    const rounding r = rounding_toward(b, a);
-    double ba = sample_all(b, a_tree, &r, spacing);
+    double ba = sample_all(b, &eb, a_tree, &ea, spacing);
     return ab > ba ? ab : ba;
 }

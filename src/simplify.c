@@ -1677,6 +1677,40 @@ static void rank_cheapest(ranked *a, size_t n, size_t share)
     sort_ranked(a, share);
 }
 
+/* Lists v and every vertex within two edges of it in ring, each once (sc's
+ * vertex_seen): v, its neighbours up to *one_ring_end, then theirs. With
+ * stop, it stops at the first vertex y it reaches with stop[y] ==
+ * stop_value and returns 0; else 1; -1 when memory runs out. */
+static int two_ball(const sim *s, scratch *sc, u32vec *ring, uint32_t v, const uint32_t *stop, uint32_t stop_value,
+                    size_t *one_ring_end)
+{
+    ring->size = 0;
+    if (next_stamp(sc) || u32_push(ring, v)) return -1;
+    sc->vertex_seen[v] = sc->stamp;
+    if (stop && stop[v] == stop_value) return 0;
+    size_t begin = 0;
+    *one_ring_end = 1;
+    for (int depth = 0; depth < 2; ++depth) {
+        const size_t end = ring->size;
+        for (size_t i = begin; i < end; ++i) {
+            const uint32_t x = ring->data[i];
+            for (uint32_t c = s->vertex_first[x]; c != NONE; c = s->corner_next[c]) {
+                if (!s->face_alive[c / 3] || s->corner_vertex[c] != x) continue;
+                for (int k = 0; k < 3; ++k) {
+                    const uint32_t y = s->corner_vertex[3 * (c / 3) + k];
+                    if (sc->vertex_seen[y] == sc->stamp) continue;
+                    sc->vertex_seen[y] = sc->stamp;
+                    if (stop && stop[y] == stop_value) return 0;
+                    if (u32_push(ring, y)) return -1;
+                }
+            }
+        }
+        begin = end;
+        if (depth == 0) *one_ring_end = ring->size;
+    }
+    return 1;
+}
+
 /* Reserves a candidate's neighbourhood in the current batch. Its evaluation
  * reads the faces around every vertex within two edges of u (R, the 2-ball);
  * its commit writes the faces around u and the lists and quadric of one
@@ -1692,31 +1726,13 @@ static int reserve_footprint(sim *s, uint32_t u)
 {
     scratch *sc = &s->serial;
     const uint32_t batch_stamp = s->batch_stamp;
-    sc->ring.size = 0;
-    if (next_stamp(sc) || u32_push(&sc->ring, u)) return sc->oom = 1, 0;
-    sc->vertex_seen[u] = sc->stamp;
+    size_t one_ring_end;
     /* each vertex is checked as it is reached, so a candidate that must wait
-     * (most of them, late in a pass) stops at the first conflict */
-    if (s->vertex_stamp[u] == batch_stamp) return 0;
-    size_t begin = 0, one_ring_end = 1;
-    for (int depth = 0; depth < 2; ++depth) {
-        size_t end = sc->ring.size;
-        for (size_t i = begin; i < end; ++i) {
-            uint32_t x = sc->ring.data[i];
-            for (uint32_t c = s->vertex_first[x]; c != NONE; c = s->corner_next[c]) {
-                if (!s->face_alive[c / 3] || s->corner_vertex[c] != x) continue;
-                for (int k = 0; k < 3; ++k) {
-                    uint32_t y = s->corner_vertex[3 * (c / 3) + k];
-                    if (sc->vertex_seen[y] == sc->stamp) continue;
-                    sc->vertex_seen[y] = sc->stamp;
-                    if (s->vertex_stamp[y] == batch_stamp) return 0; /* R meets a W */
-                    if (u32_push(&sc->ring, y)) return sc->oom = 1, 0;
-                }
-            }
-        }
-        begin = end;
-        if (depth == 0) one_ring_end = sc->ring.size;
-    }
+     * (most of them, late in a pass) stops at the first conflict (R meets
+     * a W) */
+    const int r = two_ball(s, sc, &sc->ring, u, s->vertex_stamp, batch_stamp, &one_ring_end);
+    if (r < 0) return sc->oom = 1, 0;
+    if (r == 0) return 0;
     const size_t write_end = s->full_edge ? sc->ring.size : one_ring_end;
     for (size_t i = 0; i < write_end; ++i) s->vertex_stamp[sc->ring.data[i]] = batch_stamp;
     return 1;
@@ -2164,27 +2180,8 @@ static int region_queue(sim *s, region_thread *t, uint32_t u)
  * edges of them changed, as in collect_candidates). */
 static int region_requeue(sim *s, scratch *sc, region_thread *t, uint32_t v)
 {
-    t->ring.size = 0;
-    if (next_stamp(sc) || u32_push(&t->ring, v)) return -1;
-    sc->vertex_seen[v] = sc->stamp;
-    size_t begin = 0, one_ring_end = 1;
-    for (int depth = 0; depth < 2; ++depth) {
-        const size_t end = t->ring.size;
-        for (size_t i = begin; i < end; ++i) {
-            const uint32_t x = t->ring.data[i];
-            for (uint32_t c = s->vertex_first[x]; c != NONE; c = s->corner_next[c]) {
-                if (!s->face_alive[c / 3] || s->corner_vertex[c] != x) continue;
-                for (int k = 0; k < 3; ++k) {
-                    const uint32_t y = s->corner_vertex[3 * (c / 3) + k];
-                    if (sc->vertex_seen[y] == sc->stamp) continue;
-                    sc->vertex_seen[y] = sc->stamp;
-                    if (u32_push(&t->ring, y)) return -1;
-                }
-            }
-        }
-        begin = end;
-        if (depth == 0) one_ring_end = t->ring.size;
-    }
+    size_t one_ring_end;
+    if (two_ball(s, sc, &t->ring, v, NULL, 0, &one_ring_end) < 0) return -1;
     for (size_t i = 0; i < t->ring.size; ++i) {
         const uint32_t x = t->ring.data[i];
         /* outside the region's interior nothing is read: region_queue skips it */
@@ -2780,7 +2777,6 @@ static void sim_free(sim *s)
     free(s->special);
     registry_free(&s->reg);
     cert_original_free(&s->orig);
-
     for (uint32_t t = 0; t <= MAX_THREADS; ++t) {
         scratch *sc = t < MAX_THREADS ? &s->scratch[t] : &s->serial;
         free(sc->faces_u.data);
