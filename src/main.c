@@ -303,8 +303,9 @@ static simplify_options simplify_options_of(const cli *c)
 }
 
 /* Welds mesh m and runs the certified ladder on it; on failure nothing is
- * left to free. release_mesh_data: the caller needs nothing of the mesh's
- * geometry in the scene afterwards, so it is freed once welded. */
+ * left to free. release_mesh_data: the mesh's geometry in the scene is freed
+ * once welded, so that it is not held beside the simplifier's arrays (a
+ * caller that needs it afterwards reads it again: scene_reload_mesh_data). */
 static int weld_and_simplify(scene *s, uint32_t m, int release_mesh_data, const simplify_options *opt,
                              weld_result *w, simplify_result *r, lp_error *err)
 {
@@ -665,8 +666,11 @@ static int cmd_lod(const cli *c)
             for (uint32_t k = 0; k < opt.level_count; ++k) reserved[k] = c->levels[k] - budget / mesh->diagonal;
             mesh_opt.fractions = reserved;
         }
-        if (!rc) rc = weld_and_simplify(&s, m, 0, &mesh_opt, &w, &r, &err);
+        /* the decoded mesh is not held beside the simplifier's arrays, which
+         * are larger; the chain's writing reads it again */
+        if (!rc) rc = weld_and_simplify(&s, m, 1, &mesh_opt, &w, &r, &err);
         const int welded = !rc;
+        if (!rc) rc = scene_reload_mesh_data(&s, m, &err);
         if (welded && w.stats.degenerate_dangling && !c->quiet)
             fprintf(stderr, "lodpipe: %s: warning: meshes[%u]: %u zero-area triangles may lie off its surface; "
                             "the mesh is left without LOD levels\n", in, m, w.stats.degenerate_dangling);
@@ -681,6 +685,7 @@ static int cmd_lod(const cli *c)
             draco_jobs[draco_job_count++].chain.morph_errors = NULL;
         }
         if (welded) weld_free(&w);
+        if (!draco) scene_release_mesh_data(&s, m); /* Draco encodes LOD0 from it at the end */
         if (rc) {
             lodchain_summary_free(&sum);
             simplify_result_free(&r);

@@ -569,6 +569,19 @@ void scene_release_mesh_data(scene *s, uint32_t mesh)
     }
 }
 
+int scene_reload_mesh_data(scene *s, uint32_t mesh, lp_error *err)
+{
+    if (mesh >= s->mesh_count) return LP_OK;
+    scene_mesh *m = &s->meshes[mesh];
+    const uint32_t warnings = s->warning_count; /* said once, at the load */
+    int rc = LP_OK;
+    for (uint32_t p = 0; m->primitives && p < m->primitive_count && !rc; ++p)
+        if (!m->primitives[p].skipped && !m->primitives[p].streams)
+            rc = load_primitive(s, mesh, p, &m->primitives[p], err);
+    s->warning_count = warnings;
+    return rc;
+}
+
 void scene_free(scene *s)
 {
     for (uint32_t m = 0; s->meshes && m < s->mesh_count; ++m) {

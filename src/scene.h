@@ -103,6 +103,14 @@ void scene_free(scene *s);
  * is simplified. Out of range: nothing happens. */
 void scene_release_mesh_data(scene *s, uint32_t mesh);
 
+/* Decodes mesh `mesh`'s primitives again after scene_release_mesh_data: the
+ * same streams and triangles as scene_load gave, read from the document, for
+ * a caller that let them go while it held something larger (the main job
+ * while the mesh is simplified). The load's warnings are not repeated.
+ * Primitives that still hold their data are left as they are. The document's
+ * accessors of this mesh must not have changed since the load. */
+int scene_reload_mesh_data(scene *s, uint32_t mesh, lp_error *err);
+
 /* Largest axis scale of a column-major 4x4 transform (length of the longest
  * of the first three columns). */
 double scene_max_scale(const double m[16]);

@@ -1,8 +1,10 @@
-/* test_scene_release.c - what `lodpipe simplify` frees before it simplifies
- * (scene.h scene_release_mesh_data, gltf_io.h gltf_release_binary): the
- * arrays go, the records stay, and nothing reads or writes the released
- * bytes afterwards (gltf_get_view refuses, gltf_serialize fails). ASan checks
- * that scene_free after a release frees nothing twice and leaks nothing. */
+/* test_scene_release.c - what lodpipe frees before it simplifies (scene.h
+ * scene_release_mesh_data, gltf_io.h gltf_release_binary): the arrays go, the
+ * records stay, and nothing reads or writes the released bytes afterwards
+ * (gltf_get_view refuses, gltf_serialize fails); what the main job reads
+ * again once the mesh is simplified (scene_reload_mesh_data) equals what the
+ * load gave. ASan checks that scene_free after a release or a reload frees
+ * nothing twice and leaks nothing. */
 #include "check.h"
 #include "scene.h"
 
@@ -60,6 +62,57 @@ static void test_release_mesh_data(void)
     scene_free(&s);
 }
 
+/* The triangle beside a primitive without POSITION (skipped, with a
+ * warning), its index accessor one longer (4 indices: a warning from the
+ * primitive that is read again). */
+static int load_triangle_and_skipped(scene *s)
+{
+    char text[sizeof TRIANGLE_GLTF + 64];
+    const char *at = strstr(TRIANGLE_GLTF, "]}],\"materials\"");
+    snprintf(text, sizeof text, "%.*s,{\"attributes\":{\"NORMAL\":0}}%s", (int)(at - TRIANGLE_GLTF), TRIANGLE_GLTF,
+             at);
+    char *view = strstr(text, "\"byteOffset\":36,\"byteLength\":6}"), *count = strstr(text, "\"count\":3,\"type\":\"SCALAR\"");
+    CHECK(view && count, "the text to change");
+    if (!view || !count) return 1;
+    view[strlen("\"byteOffset\":36,\"byteLength\":")] = '8';
+    count[strlen("\"count\":")] = '4';
+    lp_error err = {0, ""};
+    int rc = scene_load_memory(text, strlen(text), "triangle.gltf", NULL, s, &err);
+    CHECK(rc == LP_OK, "load: %s", err.msg);
+    return rc;
+}
+
+static void test_reload_mesh_data(void)
+{
+    scene s;
+    if (load_triangle_and_skipped(&s)) return;
+    CHECK(s.meshes[0].primitive_count == 2 && s.meshes[0].primitives[1].skipped, "second primitive skipped");
+    const uint32_t warnings = s.warning_count;
+    CHECK(warnings == 2 && strstr(s.warnings[0], "not a multiple of 3") && strstr(s.warnings[1], "no POSITION"),
+          "%u warnings: %s; %s", warnings, s.warnings[0], s.warnings[1]);
+    float positions[9];
+    uint32_t triangles[3];
+    scene_primitive *p = &s.meshes[0].primitives[0];
+    memcpy(positions, p->positions, sizeof positions);
+    memcpy(triangles, p->triangles, sizeof triangles);
+    scene_release_mesh_data(&s, 0);
+    lp_error err = {0, ""};
+    CHECK(scene_reload_mesh_data(&s, 0, &err) == LP_OK, "reload: %s", err.msg);
+    CHECK(p->vertex_count == 3 && p->triangle_count == 1 && p->stream_count == 1 && p->positions && p->triangles,
+          "one triangle again: %u vertices, %u triangles", p->vertex_count, p->triangle_count);
+    CHECK(p->positions && memcmp(p->positions, positions, sizeof positions) == 0, "the same positions");
+    CHECK(p->triangles && memcmp(p->triangles, triangles, sizeof triangles) == 0, "the same triangles");
+    CHECK(p->streams && p->positions == p->streams[0].values && strcmp(p->streams[0].name, "POSITION") == 0,
+          "positions are the POSITION stream");
+    CHECK(p->material == 0 && p->mode == 4 && s.meshes[0].primitives[1].skipped && !s.meshes[0].primitives[1].streams,
+          "records as loaded");
+    CHECK(s.warning_count == warnings, "no warning repeated: %u, loaded with %u", s.warning_count, warnings);
+    const float *held = p->positions;
+    CHECK(scene_reload_mesh_data(&s, 0, &err) == LP_OK && p->positions == held, "held data left as it is");
+    CHECK(scene_reload_mesh_data(&s, 7, &err) == LP_OK, "out of range: nothing happens");
+    scene_free(&s);
+}
+
 static void test_release_binary(void)
 {
     scene s;
@@ -91,6 +144,7 @@ int main(void)
 {
     RUN(test_loaded_as_expected);
     RUN(test_release_mesh_data);
+    RUN(test_reload_mesh_data);
     RUN(test_release_binary);
     return check_summary();
 }
