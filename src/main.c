@@ -303,11 +303,11 @@ static simplify_options simplify_options_of(const cli *c)
 }
 
 /* Welds mesh m and runs the certified ladder on it; on failure nothing is
- * left to free. release_mesh_data: the mesh's geometry in the scene is freed
- * once welded, so that it is not held beside the simplifier's arrays (a
- * caller that needs it afterwards reads it again: scene_reload_mesh_data). */
-static int weld_and_simplify(scene *s, uint32_t m, int release_mesh_data, const simplify_options *opt,
-                             weld_result *w, simplify_result *r, lp_error *err)
+ * left to free. The mesh's geometry in the scene is freed once welded, so
+ * that it is not held beside the simplifier's arrays (a caller that needs it
+ * afterwards reads it again: scene_reload_mesh_data). */
+static int weld_and_simplify(scene *s, uint32_t m, const simplify_options *opt, weld_result *w, simplify_result *r,
+                             lp_error *err)
 {
     const scene_mesh *mesh = &s->meshes[m];
     memset(r, 0, sizeof *r);
@@ -316,7 +316,7 @@ static int weld_and_simplify(scene *s, uint32_t m, int release_mesh_data, const 
     if (rc) return rc;
     const double weld_seconds = lp_seconds() - weld_start;
     weld_release_edge_opposite(w); /* nothing after the weld reads it */
-    if (release_mesh_data) scene_release_mesh_data(s, m);
+    scene_release_mesh_data(s, m);
     int64_t *materials = malloc(((size_t)mesh->primitive_count + 1) * sizeof *materials);
     if (!materials) rc = lp_fail(err, LP_INVALID, "out of memory");
     for (uint32_t p = 0; materials && p < mesh->primitive_count; ++p) materials[p] = mesh->primitives[p].material;
@@ -506,7 +506,7 @@ static int cmd_simplify(const cli *c)
         weld_result w;
         simplify_result r;
         lp_error err = {0, ""};
-        if ((rc = weld_and_simplify(&s, m, 1, &opt, &w, &r, &err)) != 0) {
+        if ((rc = weld_and_simplify(&s, m, &opt, &w, &r, &err)) != 0) {
             report(in, &err);
             break;
         }
@@ -666,9 +666,8 @@ static int cmd_lod(const cli *c)
             for (uint32_t k = 0; k < opt.level_count; ++k) reserved[k] = c->levels[k] - budget / mesh->diagonal;
             mesh_opt.fractions = reserved;
         }
-        /* the decoded mesh is not held beside the simplifier's arrays, which
-         * are larger; the chain's writing reads it again */
-        if (!rc) rc = weld_and_simplify(&s, m, 1, &mesh_opt, &w, &r, &err);
+        /* it lets the scene's copy of the mesh go; writing the chain reads it again */
+        if (!rc) rc = weld_and_simplify(&s, m, &mesh_opt, &w, &r, &err);
         const int welded = !rc;
         if (!rc) rc = scene_reload_mesh_data(&s, m, &err);
         if (welded && w.stats.degenerate_dangling && !c->quiet)

@@ -1180,12 +1180,6 @@ static void test_thin_plate_no_self_intersection(void)
     }
 }
 
-/* A closed shell of two wavy sheets t apart (the box above with both
- * sheets lifted by the same bumps), thin everywhere against eps: through
- * region rounds of many sizes, so that region boundaries cross it in many
- * places, no level may have its top sheet cut through its bottom one. A
- * region skips other regions' faces in its crossing test (their cells are
- * apart) but must test the faces shared across its boundary. */
 /* Runs m through region rounds of each size (0: the default size, too
  * large for these meshes: the passes alone) and checks that no level cuts
  * through itself and every level keeps the topology. */
@@ -1209,6 +1203,12 @@ static void check_regions_never_cross(const char *name, const mesh *m, const dou
     g_region_vertices = saved;
 }
 
+/* A closed shell of two wavy sheets t apart (the box above with both
+ * sheets lifted by the same bumps), thin everywhere against eps: through
+ * region rounds of many sizes, so that region boundaries cross it in many
+ * places, no level may have its top sheet cut through its bottom one. A
+ * region skips other regions' faces in its crossing test (their cells are
+ * apart) but must test the faces shared across its boundary. */
 static void test_wavy_shell_regions(void)
 {
     static const uint32_t sizes[] = {32, 48, 64, 96, 128, 160};
