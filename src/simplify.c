@@ -258,6 +258,7 @@ typedef struct sim {
      * is the first round's cell size, for region_alive0 alive vertices. */
     uint32_t *region_of, *face_owner, *spatial;
     uint32_t *queued; /* per vertex: the version of its latest entry in its region's queue */
+    uint32_t *queued_to; /* per vertex: the neighbour whose edge gave that entry's cost (NONE: none) */
     uint32_t spatial_count, region_alive0;
     double region_cell;
     uint8_t *interior;
@@ -1682,7 +1683,7 @@ static void rank_cheapest(ranked *a, size_t n, size_t share)
  * stop, it stops at the first vertex y it reaches with stop[y] ==
  * stop_value and returns 0; else 1; -1 when memory runs out. */
 static int two_ball(const sim *s, scratch *sc, u32vec *ring, uint32_t v, const uint32_t *stop, uint32_t stop_value,
-                    size_t *one_ring_end)
+                    int depths, size_t *one_ring_end)
 {
     ring->size = 0;
     if (next_stamp(sc) || u32_push(ring, v)) return -1;
@@ -1690,7 +1691,7 @@ static int two_ball(const sim *s, scratch *sc, u32vec *ring, uint32_t v, const u
     if (stop && stop[v] == stop_value) return 0;
     size_t begin = 0;
     *one_ring_end = 1;
-    for (int depth = 0; depth < 2; ++depth) {
+    for (int depth = 0; depth < depths; ++depth) {
         const size_t end = ring->size;
         for (size_t i = begin; i < end; ++i) {
             const uint32_t x = ring->data[i];
@@ -1730,7 +1731,7 @@ static int reserve_footprint(sim *s, uint32_t u)
     /* each vertex is checked as it is reached, so a candidate that must wait
      * (most of them, late in a pass) stops at the first conflict (R meets
      * a W) */
-    const int r = two_ball(s, sc, &sc->ring, u, s->vertex_stamp, batch_stamp, &one_ring_end);
+    const int r = two_ball(s, sc, &sc->ring, u, s->vertex_stamp, batch_stamp, 2, &one_ring_end);
     if (r < 0) return sc->oom = 1, 0;
     if (r == 0) return 0;
     const size_t write_end = s->full_edge ? sc->ring.size : one_ring_end;
@@ -2088,6 +2089,9 @@ static int queued_before(const queued_cost *x, const queued_cost *y)
 typedef struct region_thread {
     queued_cost *heap;
     size_t heap_size, heap_cap;
+    /* the region's interior vertices that wait after a rejection: while
+     * there are none, a commit re-queues only its 1-ring */
+    uint64_t waiting;
     own_grid own;
     u32vec deferred, ring;
 } region_thread;
@@ -2160,28 +2164,73 @@ static queued_cost heap_pop(region_thread *t)
 /* Queues u, a candidate of the region, with its current cost (the cost of
  * its cheapest neighbour, as the global passes rank it); an earlier entry
  * of u becomes stale. Returns 0, or -1 when memory runs out. */
-static int region_queue(sim *s, region_thread *t, uint32_t u)
+/* u's cost: that of its cheapest edge, the neighbour at its end in *to
+ * (NONE when u has no edge of finite cost). */
+static double queue_cost(const sim *s, uint32_t u, uint32_t *to)
 {
-    if (!(s->interior[u] & VERTEX_INTERIOR) || !s->vertex_alive[u] || s->w->vertex_kind[u] == WELD_LOCKED) return 0;
     double best = INFINITY, place[3];
+    *to = NONE;
     for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c]) {
         if (!s->face_alive[c / 3] || s->corner_vertex[c] != u) continue;
         int full = 0;
-        const double e = edge_cost(s, u, s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3], &full, place);
-        if (e < best) best = e;
+        const uint32_t x = s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3];
+        const double e = edge_cost(s, u, x, &full, place);
+        if (e < best) best = e, *to = x;
     }
+    return best;
+}
+
+static int region_queue(sim *s, region_thread *t, uint32_t u)
+{
+    if (!(s->interior[u] & VERTEX_INTERIOR) || !s->vertex_alive[u] || s->w->vertex_kind[u] == WELD_LOCKED) return 0;
+    const double best = queue_cost(s, u, &s->queued_to[u]);
     if (!(best < INFINITY)) return 0;
     return heap_push(t, (queued_cost){best, u, ++s->queued[u]});
 }
 
-/* After a commit onto v: the vertices within two edges of v are queued
- * again with their new costs (v's quadric changed, so did the costs of its
- * neighbours) or, when they were rejected, tried again (a face within two
- * edges of them changed, as in collect_candidates). */
-static int region_requeue(sim *s, scratch *sc, region_thread *t, uint32_t v)
+/* region_queue for x, a neighbour of v after the commit of dead -> v, from
+ * its latest entry's cost: of x's edges only the one to v changed (v's
+ * quadric grew) and the one to dead went; an edge to any other y kept its
+ * cost (the quadrics of x and y and y's place did not change). So when the
+ * edge that gave the entry's cost leads elsewhere, the new cost is the
+ * smaller of that edge's and the edge to v's: the value region_queue would
+ * compute, for two edge costs instead of one per neighbour. */
+static int region_queue_after(sim *s, region_thread *t, uint32_t x, uint32_t v, uint32_t dead)
+{
+    const uint32_t to = s->queued_to[x];
+    if (to == NONE || to == v || to == dead || !(s->interior[x] & VERTEX_INTERIOR) ||
+        s->w->vertex_kind[x] == WELD_LOCKED)
+        return region_queue(s, t, x);
+    int full = 0;
+    double place[3], best = edge_cost(s, x, to, &full, place);
+    for (uint32_t c = s->vertex_first[x]; c != NONE; c = s->corner_next[c]) {
+        if (!s->face_alive[c / 3] || s->corner_vertex[c] != x || s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3] != v)
+            continue;
+        const double e = edge_cost(s, x, v, &full, place);
+        if (e < best) best = e, s->queued_to[x] = v;
+    }
+    if (s->verify) { /* the invariant checker's mode: the same value as region_queue's, to the bit */
+        uint32_t to_full;
+        const double again = queue_cost(s, x, &to_full);
+        if (memcmp(&again, &best, sizeof best) != 0) {
+            snprintf(s->verify_msg, sizeof s->verify_msg,
+                     "vertex %u: cost %.17g kept after the commit onto %u, %.17g computed afresh", x, best, v, again);
+            s->verify_failed = 1;
+            return -1;
+        }
+    }
+    return heap_push(t, (queued_cost){best, x, ++s->queued[x]});
+}
+
+/* After the commit of dead -> v: the vertices within two edges of v are
+ * queued again with their new costs (v's quadric changed, so did the costs
+ * of its neighbours) or, when they were rejected, tried again (a face within
+ * two edges of them changed, as in collect_candidates). While no vertex of
+ * the region waits after a rejection, only the 1-ring can change. */
+static int region_requeue(sim *s, scratch *sc, region_thread *t, uint32_t v, uint32_t dead)
 {
     size_t one_ring_end;
-    if (two_ball(s, sc, &t->ring, v, NULL, 0, &one_ring_end) < 0) return -1;
+    if (two_ball(s, sc, &t->ring, v, NULL, 0, t->waiting ? 2 : 1, &one_ring_end) < 0) return -1;
     for (size_t i = 0; i < t->ring.size; ++i) {
         const uint32_t x = t->ring.data[i];
         /* outside the region's interior nothing is read: region_queue skips it */
@@ -2189,8 +2238,12 @@ static int region_requeue(sim *s, scratch *sc, region_thread *t, uint32_t v)
         if (s->reject_stamp[x] != NONE) {
             if (!changed_since(s, x, s->reject_stamp[x])) continue;
             s->reject_stamp[x] = NONE;
+            t->waiting--;
         } else if (i >= one_ring_end) {
             continue; /* queued, and its cost did not change: no neighbour's quadric did */
+        } else if (i > 0) {
+            if (region_queue_after(s, t, x, v, dead)) return -1;
+            continue;
         }
         if (region_queue(s, t, x)) return -1;
     }
@@ -2211,11 +2264,16 @@ static void region_run(sim *s, region *rg, uint32_t thread, region_thread *rt)
     const committer cm = {sc, &rg->stats, &rg->clock, NULL, rg};
     if (own_grid_init(s, rg, &rt->own)) goto oom;
     uint64_t interior = 0;
+    rt->waiting = 0;
     for (uint32_t i = rg->begin; i < rg->end; ++i) {
         const uint32_t u = s->spatial[i];
         interior += (s->interior[u] & VERTEX_INTERIOR) != 0;
         if (s->reject_stamp[u] != NONE) {
-            if (!(s->interior[u] & VERTEX_INTERIOR) || !changed_since(s, u, s->reject_stamp[u])) continue;
+            if (!(s->interior[u] & VERTEX_INTERIOR)) continue;
+            if (!changed_since(s, u, s->reject_stamp[u])) {
+                rt->waiting++;
+                continue;
+            }
             s->reject_stamp[u] = NONE;
         }
         if (region_queue(s, rt, u)) goto oom;
@@ -2241,6 +2299,7 @@ static void region_run(sim *s, region *rg, uint32_t thread, region_thread *rt)
                 rg->stats.rejected[c.reason]++;
             }
             s->reject_stamp[c.u] = rg->clock;
+            rt->waiting++;
             continue;
         }
         if (!commit(s, &c, &cm)) { /* in a region only a failure stops a commit */
@@ -2248,7 +2307,7 @@ static void region_run(sim *s, region *rg, uint32_t thread, region_thread *rt)
             break;
         }
         rg->stats.commits++;
-        if (region_requeue(s, sc, rt, c.v)) goto oom;
+        if (region_requeue(s, sc, rt, c.v, c.u)) goto oom;
         /* its faces grow as they merge: cells for their size */
         if (rt->own.alive < rt->own.built / 2 && own_grid_build(s, &rt->own)) goto oom;
     }
@@ -2383,7 +2442,8 @@ static int region_phase(sim *s)
         s->face_owner = malloc(((size_t)s->nf + 1) * sizeof *s->face_owner);
         s->interior = malloc((size_t)s->nv + 1);
         s->queued = calloc((size_t)s->nv + 1, sizeof *s->queued);
-        if (!s->spatial || !s->region_of || !s->face_owner || !s->interior || !s->queued)
+        s->queued_to = malloc(((size_t)s->nv + 1) * sizeof *s->queued_to);
+        if (!s->spatial || !s->region_of || !s->face_owner || !s->interior || !s->queued || !s->queued_to)
             return s->serial.oom = 1, -1;
         for (uint32_t v = 0; v < s->nv; ++v) s->spatial[v] = v;
         s->spatial_count = s->nv;
@@ -2766,6 +2826,7 @@ static void sim_free(sim *s)
     free(s->spatial);
     free(s->interior);
     free(s->queued);
+    free(s->queued_to);
     free(s->change_stamp);
     free(s->reject_stamp);
     free(s->removal_stamp);
