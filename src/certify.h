@@ -75,7 +75,6 @@ typedef struct cert_original {
     /* owned: the distinct vertices of cluster c's triangles are
      * cluster_vertices[cluster_vertex_start[c] .. cluster_vertex_start[c + 1] - 1] */
     uint32_t *cluster_vertex_start, *cluster_vertices;
-    double mean_area; /* of its triangles */
 } cert_original;
 
 /* Builds normals and the BVH (with bvh_build_threads: the same tree for any
