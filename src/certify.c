@@ -520,6 +520,16 @@ int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bou
     return piece_a(o, &filter, f, p, 0, eps, accept, bound);
 }
 
+int cert_face_overlay(const cert_original *o, const cert_tri *f, double eps, double *bound)
+{
+    *bound = 0.0;
+    if (f->degenerate) return 0;
+    face_filter filter = {o, f->material, f->n};
+    vec3d p[3];
+    for (int k = 0; k < 3; ++k) p[k] = geom_vec3d_from_doubles(f->p[k]);
+    return overlay_now(o, &filter, p, f, eps * (1.0 - CERT_MARGIN), bound);
+}
+
 /* ---- (b): an original triangle against the level's faces -------------------- */
 
 typedef struct cover_state {

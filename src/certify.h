@@ -107,6 +107,13 @@ void cert_face_normal(cert_tri *f);
  * enough at fine levels), then the BVH. */
 int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bound);
 
+/* (a) by the overlay alone (DESIGN.md §4 (a)2), with no subdivision: 1 when
+ * it certifies F, with *bound the largest piece-corner distance (plus the
+ * rounding slack); 0 otherwise. cert_face tries the subdivision first, which
+ * is cheaper but bounds a piece by d + r; the simplifier calls this on the
+ * faces that set a level's bound, where the overlay's tighter number counts. */
+int cert_face_overlay(const cert_original *o, const cert_tri *f, double eps, double *bound);
+
 /* (b): 1 when original triangle t is certified within eps of the union of
  * faces[0..count-1]; *used receives up to CERT_MAX_WITNESSES distinct face
  * ids (in first-use order), *bound the largest accepted value. 0 otherwise.

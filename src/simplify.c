@@ -2984,15 +2984,65 @@ static int level_structures(sim *s)
     return grid_rc || job.rc ? -1 : 0;
 }
 
+/* Faces per level whose bound tighten_bounds may try to lower. */
+#define TIGHTEN_MAX_FACES 1024
+
+typedef struct bounded_face {
+    double bound;
+    uint32_t face;
+} bounded_face;
+
+/* Larger bound first, then lower face number: a total order, so the sort's
+ * result does not depend on the algorithm. */
+static int bound_order(const void *x, const void *y)
+{
+    const bounded_face *a = x, *b = y;
+    if (a->bound != b->bound) return a->bound > b->bound ? -1 : 1;
+    return (a->face > b->face) - (a->face < b->face);
+}
+
+/* A face's recorded bound is that of the proof cert_face found first: for a
+ * face the corner ball could not settle, usually the subdivision's d + r,
+ * above the overlay's (cert_face_overlay). Only the faces that set the
+ * level's bound matter: from the largest recorded bound down, each face
+ * takes the overlay's when that is smaller (both are proofs), until the next
+ * face's recorded bound is no larger than the largest bound so far, which
+ * starts at `floor` (what the originals' side of the certificate needs), or
+ * TIGHTEN_MAX_FACES have been tried. The level's bound can only fall. Serial,
+ * so deterministic. Returns 0, or -1 when memory runs out. */
+static int tighten_bounds(sim *s, double floor)
+{
+    size_t n = 0;
+    for (uint32_t f = 0; f < s->nf; ++f) n += s->face_alive[f] && s->face_bound[f] > floor;
+    bounded_face *top = malloc((n + 1) * sizeof *top);
+    if (!top) return -1;
+    n = 0;
+    for (uint32_t f = 0; f < s->nf; ++f)
+        if (s->face_alive[f] && s->face_bound[f] > floor) top[n++] = (bounded_face){s->face_bound[f], f};
+    qsort(top, n, sizeof *top, bound_order);
+    double level = floor;
+    for (size_t i = 0; i < n && i < TIGHTEN_MAX_FACES && top[i].bound > level; ++i) {
+        const uint32_t f = top[i].face;
+        cert_tri t;
+        face_after(s, f, NULL, &t);
+        double overlay;
+        if (cert_face_overlay(&s->orig, &t, s->eps, &overlay) && overlay < s->face_bound[f]) {
+            s->face_bound[f] = overlay;
+            if (s->verify && verify_state(s, NULL, 0, &f, 1) != 0) { /* the face within its new bound */
+                s->verify_failed = 1;
+                free(top);
+                return -1;
+            }
+        }
+        if (s->face_bound[f] > level) level = s->face_bound[f];
+    }
+    free(top);
+    return 0;
+}
+
 static int snapshot_level(sim *s, simplify_level *level)
 {
-    uint32_t alive = 0;
     double bound = 0.0;
-    for (uint32_t f = 0; f < s->nf; ++f)
-        if (s->face_alive[f]) {
-            alive++;
-            if (s->face_bound[f] > bound) bound = s->face_bound[f];
-        }
     /* the bounds of the certificates in force: an original's own, or its
      * cluster's when that is registered whole */
     for (uint32_t t = 0; t < s->nf; ++t)
@@ -3003,6 +3053,13 @@ static int snapshot_level(sim *s, simplify_level *level)
         level->stats.clusters_whole++;
         if (s->unit_bound[s->nf + c] > bound) bound = s->unit_bound[s->nf + c];
     }
+    if (tighten_bounds(s, bound)) return -1;
+    uint32_t alive = 0;
+    for (uint32_t f = 0; f < s->nf; ++f)
+        if (s->face_alive[f]) {
+            alive++;
+            if (s->face_bound[f] > bound) bound = s->face_bound[f];
+        }
     level->bound = bound;
     level->triangle_count = alive;
     level->wedges = malloc(((size_t)alive * 3 + 1) * sizeof *level->wedges);
@@ -3106,12 +3163,14 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
                 memset(s->reject_stamp, 0xff, (size_t)w->vertex_count * sizeof *s->reject_stamp);
             }
         }
-        if (s->verify && verify_state(s, NULL, 0, NULL, 0) != 0) {
-            rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);
+        if (snapshot_level(s, level)) {
+            if (s->verify_failed) rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);
+            else rc = lp_fail(err, LP_INVALID, "out of memory");
             goto done;
         }
-        if (snapshot_level(s, level)) {
-            rc = lp_fail(err, LP_INVALID, "out of memory");
+        /* after the snapshot, so that the bounds it tightened are checked too */
+        if (s->verify && verify_state(s, NULL, 0, NULL, 0) != 0) {
+            rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);
             goto done;
         }
         level->stats.seconds = lp_seconds() - t0;

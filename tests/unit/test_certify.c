@@ -897,15 +897,23 @@ static void overlay_face_case(int hole, double raise, int overhang, int decal)
     int ok = cert_face(&m.o, &f, eps, &bound);
     /* the measure of (a): distance to the originals that face F's way */
     double sampled = sampled_face_to_original(&m, p, 64, 0, f.n);
+    /* the overlay alone (what the simplifier uses to tighten a level's
+     * bound) decides the same, with the same bound here */
+    double overlay_bound = -1;
+    const int overlay_ok = cert_face_overlay(&m.o, &f, eps, &overlay_bound);
     if (!hole && raise == 0 && !overhang && !decal) {
         CHECK(ok, "F 0.4 eps above a grid is certified (only the overlay can prove it)");
         if (ok)
             CHECK(sampled <= bound + slack(1) && bound <= eps && bound >= h - 1e-9, "sampled %.17g <= bound %.17g <= eps",
                   sampled, bound);
+        CHECK(overlay_ok && overlay_bound == bound, "the overlay alone: %d, bound %.17g (cert_face %.17g)", overlay_ok,
+              overlay_bound, bound);
     } else {
         CHECK(sampled > eps, "the bad case really is farther than eps: %g", sampled);
         CHECK(!ok, "certified F with hole %d raise %g overhang %d decal %d (sampled %g > eps)", hole, raise, overhang,
               decal, sampled);
+        CHECK(!overlay_ok, "the overlay alone certified F with hole %d raise %g overhang %d decal %d", hole, raise,
+              overhang, decal);
     }
     om_free(&m);
 }
