@@ -282,7 +282,7 @@ static void split4(const vec3d p[3], vec3d out[4][3])
 
 /* ---- (a) overlay: the originals under F, flood-filled from F's corners ------ */
 
-#define OVERLAY_MAX_ORIGINALS 256 /* more originals under one face: subdivision instead */
+#define OVERLAY_MAX_ORIGINALS 256 /* more originals under one face: the overlay fails */
 
 enum { FLOOD_PENDING = 0, FLOOD_ACCEPTED = 1, FLOOD_PASSED_OVER = 2 };
 
@@ -449,7 +449,9 @@ static int piece_a(const cert_original *o, face_filter *filter, const cert_tri *
      * faces under 256 originals of mean area (the rule before), 24.38 G
      * under 64, 21.58 G under 16, 21.40 G with the quarters always first;
      * the levels were the same, the bounds the same or a few ppm of eps
-     * larger (d + r of the quarters instead of the overlay's corners). */
+     * larger (d + r of the quarters instead of the overlay's corners), which
+     * the simplifier takes back where it sets a level's bound
+     * (cert_face_overlay). */
     if (depth < CERT_MAX_DEPTH) {
         vec3d pieces[4][3];
         split4(p, pieces);

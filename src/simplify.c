@@ -1679,7 +1679,8 @@ static void rank_cheapest(ranked *a, size_t n, size_t share)
 }
 
 /* Lists v and every vertex within two edges of it in ring, each once (sc's
- * vertex_seen): v, its neighbours up to *one_ring_end, then theirs. With
+ * vertex_seen): v, its neighbours up to *one_ring_end, then theirs (depths
+ * 2; with depths 1, v and its neighbours only). With
  * stop, it stops at the first vertex y it reaches with stop[y] ==
  * stop_value and returns 0; else 1; -1 when memory runs out. */
 static int two_ball(const sim *s, scratch *sc, u32vec *ring, uint32_t v, const uint32_t *stop, uint32_t stop_value,
@@ -2161,9 +2162,6 @@ static queued_cost heap_pop(region_thread *t)
     return top;
 }
 
-/* Queues u, a candidate of the region, with its current cost (the cost of
- * its cheapest neighbour, as the global passes rank it); an earlier entry
- * of u becomes stale. Returns 0, or -1 when memory runs out. */
 /* u's cost: that of its cheapest edge, the neighbour at its end in *to
  * (NONE when u has no edge of finite cost). */
 static double queue_cost(const sim *s, uint32_t u, uint32_t *to)
@@ -2180,9 +2178,18 @@ static double queue_cost(const sim *s, uint32_t u, uint32_t *to)
     return best;
 }
 
+/* May u be queued in its region: interior, alive, not locked? */
+static int queueable(const sim *s, uint32_t u)
+{
+    return (s->interior[u] & VERTEX_INTERIOR) && s->vertex_alive[u] && s->w->vertex_kind[u] != WELD_LOCKED;
+}
+
+/* Queues u, a candidate of the region, with its current cost (the cost of
+ * its cheapest neighbour, as the global passes rank it); an earlier entry
+ * of u becomes stale. Returns 0, or -1 when memory runs out. */
 static int region_queue(sim *s, region_thread *t, uint32_t u)
 {
-    if (!(s->interior[u] & VERTEX_INTERIOR) || !s->vertex_alive[u] || s->w->vertex_kind[u] == WELD_LOCKED) return 0;
+    if (!queueable(s, u)) return 0;
     const double best = queue_cost(s, u, &s->queued_to[u]);
     if (!(best < INFINITY)) return 0;
     return heap_push(t, (queued_cost){best, u, ++s->queued[u]});
@@ -2198,9 +2205,7 @@ static int region_queue(sim *s, region_thread *t, uint32_t u)
 static int region_queue_after(sim *s, region_thread *t, uint32_t x, uint32_t v, uint32_t dead)
 {
     const uint32_t to = s->queued_to[x];
-    if (to == NONE || to == v || to == dead || !(s->interior[x] & VERTEX_INTERIOR) ||
-        s->w->vertex_kind[x] == WELD_LOCKED)
-        return region_queue(s, t, x);
+    if (to == NONE || to == v || to == dead || !queueable(s, x)) return region_queue(s, t, x);
     int full = 0;
     double place[3], best = edge_cost(s, x, to, &full, place);
     for (uint32_t c = s->vertex_first[x]; c != NONE; c = s->corner_next[c]) {
