@@ -3,7 +3,9 @@
 //
 // For every scan and scene asset of the corpus (manifest categories 'scan' and 'scene') and the default
 // scene assets/default_scene.glb, simplify with the default levels (1, 3, 7, 15 % of each mesh's bbox
-// diagonal) into a temp folder; then, for every mesh of the default scene and every level L >= 1:
+// diagonal) into a temp folder (a few assets also with --placement optimal, and four runs with other
+// ladders, one of them on a sheared copy of a scan: LADDERED below); then, for every mesh of the default
+// scene and every level L >= 1:
 //   a. soundness: the two-sided Hausdorff distance between mesh<K>_level0.obj and mesh<K>_level<L>.obj,
 //      measured by the independent CGAL tool (build/hausdorff/hausdorff, `--within`, branch and bound),
 //      is PROVEN <= the recorded bound (hausdorff_upper <= bound + 1e-7 x diagonal for float printing,
@@ -38,6 +40,8 @@
 //   LODPIPE_SIMPLIFY_TIMEOUT_MS  per simplify run (default 900000)
 //   LODPIPE_HAUSDORFF_TIMEOUT_MS per hausdorff run (default 600000)
 //   LODPIPE_SIMPLIFY_ONLY        optional comma-separated substrings of asset paths to run (others skipped)
+//   LODPIPE_SIMPLIFY_STRESS=1    also the stress: 4 more ladders on 35 inputs (stressInputs()), 140 runs; with
+//                                LODPIPE_SIMPLIFY_ONLY='(stress)' the stress alone (not in make test)
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
@@ -47,7 +51,7 @@ import { spawnSync } from 'node:child_process';
 // The CGAL tool's runner and its proven "H <= limit" decision (shared with the LOD-chain suite).
 import { HAUSDORFF, hausdorffWithin, runHausdorff } from './lib/lodcheck.mjs';
 import {
-  corpusPath, describeRun, lodpipeBin, manifestInputs, readDocument, readRaw, repoRoot, runHealthProblems, runLodpipe, successStderrProblems, tempDir, featureSkipReason, isExecutable,
+  corpusPath, sharedRoot, describeRun, lodpipeBin, manifestInputs, readDocument, readRaw, repoRoot, runHealthProblems, runLodpipe, successStderrProblems, tempDir, featureSkipReason, isExecutable,
 } from './lib/gltf.mjs';
 
 // ---------------------------------------------------------------------------------------------
@@ -710,14 +714,65 @@ function runSimplify(asset, outDir, extra = []) {
 // Every asset with the defaults (half-edge collapses); a few with lod.placement = "optimal" (full-edge
 // collapses may place the kept vertex: the level OBJs then carry the placed positions), through the same checks.
 const PLACED = ['scans/cow.glb', 'scans/fandisk.glb', 'scans/suzanne.glb', 'scenes/Duck.glb', 'default_scene.glb'];
+// And other ladders than 1/3/7/15 %, through the same checks: finer first levels, a last level far
+// coarser than the default, placement on one level only, and a sheared copy of a scan (bench/make_batch.py
+// variant 2: the affine map changes every triangle's shape, so the collapses and certificates all differ).
+// These four are taken from the stress (LODPIPE_SIMPLIFY_STRESS=1: STRESS_LADDERS on stressInputs(), 140
+// runs; Dec 2026: 1,200 levels, all proven sound): the ones whose bounds came closest to the measured
+// distance.
+const LADDERED = [
+  { rel: 'scans/spot.glb', levels: '0.25,0.5,2,5', extra: [] },
+  { rel: 'scenes/2CylinderEngine.glb', levels: '0.25,0.5,2,5', extra: [] },
+  { rel: 'scans/rocker-arm.glb', levels: '0.1,0.3,40', extra: ['--placement', 'optimal', '--optimal-levels', '2'] },
+  { rel: 'scans/cow.glb', sheared: true, levels: '0.1,0.3,40', extra: ['--placement', 'optimal', '--optimal-levels', '2'] },
+];
+const STRESS = process.env.LODPIPE_SIMPLIFY_STRESS === '1';
+const STRESS_LADDERS = [
+  { levels: '0.25,0.5,2,5', extra: [] },
+  { levels: '0.5,2.5,10,30', extra: [] },
+  { levels: '1,3,7,15', extra: ['--placement', 'optimal'] },
+  { levels: '0.1,0.3,40', extra: ['--placement', 'optimal', '--optimal-levels', '2'] },
+];
+/** The corpus scans and three scenes as they are, and bench/make_batch.py's variant 2 of each of its assets. */
+function stressInputs() {
+  const asTheyAre = ['scans/bunny.glb', 'scans/fandisk.glb', 'scans/rocker-arm.glb', 'scans/spot.glb', 'scans/cow.glb',
+    'scans/teapot.glb', 'scans/suzanne.glb', 'scenes/DamagedHelmet.glb', 'scenes/2CylinderEngine.glb', 'scenes/ShapeCollection.glb'];
+  const r = spawnSync('python3', ['-c', 'import sys; sys.path.insert(0, sys.argv[1]); import make_batch; print("\\n".join(make_batch.ASSETS))',
+    path.join(repoRoot, 'bench')], { encoding: 'utf8' });
+  if (r.status !== 0) throw new Error(`cannot read bench/make_batch.py's ASSETS: ${r.stderr}`);
+  const batchAssets = r.stdout.split('\n').filter(Boolean);
+  return [
+    ...asTheyAre.map((rel) => ({ rel, sheared: false })),
+    ...batchAssets.map((rel) => ({ rel, sheared: true })),
+  ];
+}
+const ladderRun = (asset, sheared, levels, extra) => ({
+  asset, sheared, extra: ['--levels', levels, ...extra], fractions: levels.split(',').map((x) => Number(x) / 100),
+  label: `${sheared ? ' (sheared copy)' : ''} --levels ${levels} ${extra.join(' ')}`.trimEnd(),
+});
 const runsToCheck = [
   ...assets.map((asset) => ({ asset, extra: [], label: '' })),
   ...assets.filter((a) => PLACED.some((s) => a.rel.includes(s))).map((asset) => ({ asset, extra: ['--placement', 'optimal'], label: ' --placement optimal' })),
+  ...LADDERED.flatMap(({ rel, sheared, levels, extra }) => assets.filter((a) => a.rel === rel).map((asset) => ladderRun(asset, sheared, levels, extra))),
+  ...(STRESS ? stressInputs().flatMap(({ rel, sheared }) => STRESS_LADDERS.map(({ levels, extra }) =>
+    ladderRun({ rel: `${rel} (stress)`, file: corpusPath(rel), triangles: 0, shearFrom: rel }, sheared, levels, extra))) : []),
 ];
-for (const { asset, extra, label } of runsToCheck) {
-  const only = ONLY.length && !ONLY.some((s) => asset.rel.includes(s));
-  test(`simplify ${asset.rel}${label}: sound, bounded, monotone, topology kept`, { skip: skipCorpus || (only ? 'not in LODPIPE_SIMPLIFY_ONLY' : false) }, async (t) => {
+
+/** bench/make_batch.py's variant 2 of a corpus asset, written below dir; its path. */
+function shearedCopy(rel, dir) {
+  const r = spawnSync('python3', [path.join(repoRoot, 'bench', 'make_batch.py'), dir, '--variants', '3', '--assets', rel,
+    '--shared', sharedRoot], { encoding: 'utf8' });
+  assert.equal(r.status, 0, `make_batch.py failed: ${r.stderr}`);
+  const variantDir = fs.readdirSync(dir).map((d) => path.join(dir, d, 'v02')).find((d) => fs.existsSync(d));
+  assert.ok(variantDir, `make_batch.py wrote no variant 2 below ${dir}`);
+  return path.join(variantDir, path.basename(rel));
+}
+
+for (const { asset: listed, sheared, extra, fractions, label } of runsToCheck) {
+  const only = ONLY.length && !ONLY.some((s) => listed.rel.includes(s));
+  test(`simplify ${listed.rel}${label}: sound, bounded, monotone, topology kept`, { skip: skipCorpus || (only ? 'not in LODPIPE_SIMPLIFY_ONLY' : false) }, async (t) => {
     if (hausdorffSkip) assert.fail(`${hausdorffSkip}: soundness cannot be checked`);
+    const asset = sheared ? { ...listed, file: shearedCopy(listed.shearFrom || listed.rel, tempDir(t, 'lodpipe-sheared-')) } : listed;
     const outDir = tempDir(t, 'lodpipe-simplify-');
     const r = runSimplify(asset, outDir, extra);
     t.diagnostic(`${asset.rel}: simplify took ${(r.ms / 1000).toFixed(1)} s with ${r.bin === lodpipeBin ? 'LODPIPE_BIN' : 'LODPIPE_BIN_FAST'}`);
@@ -739,7 +794,7 @@ for (const { asset, extra, label } of runsToCheck) {
     const doc = await readDocument(asset.file);
     for (const m of report.meshes || []) {
       await t.test(`mesh ${m.mesh}${m.name ? ` "${m.name}"` : ''} (${m.triangles} triangles)`, async (mt) => {
-        const res = checkMesh(outDir, m, { original: { doc, file: asset.file } });
+        const res = checkMesh(outDir, m, { fractions, original: { doc, file: asset.file } });
         for (const n of res.notes) mt.diagnostic(`${asset.rel} ${n}`);
         for (const [key, title] of ASPECTS) {
           await mt.test(title, () => assert.deepEqual(res.problems[key], [], formatProblems(`${asset.rel} mesh ${m.mesh}: ${title}`, res.problems[key])));
