@@ -464,6 +464,7 @@ static void json_stats(FILE *f, const simplify_stats *st)
     fprintf(f, ",\"seconds_select\":%.6f,\"seconds_certify\":%.6f,\"seconds_commit\":%.6f", st->seconds_select,
             st->seconds_certify, st->seconds_commit);
     fprintf(f, ",\"removals\":%llu,\"seconds_removal\":%.6f", (unsigned long long)st->removals, st->seconds_removal);
+    fprintf(f, ",\"verify_checks\":%llu", (unsigned long long)st->verify_checks);
     fprintf(f, ",\"regions\":{\"rounds\":%u,\"commits\":%llu,\"deferred\":%llu,\"seconds\":%.6f}", st->rounds,
             (unsigned long long)st->region_commits, (unsigned long long)st->deferred, st->seconds_regions);
 }

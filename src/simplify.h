@@ -102,6 +102,9 @@ typedef struct simplify_stats {
      * each round of passes) */
     uint64_t removals;
     double seconds_removal;
+    /* options.verify: the invariant checks made (after every commit, every
+     * cluster sweep and the level's end), all passed; 0 without verify */
+    uint64_t verify_checks;
     /* region rounds (simplify.c) run at the level's start, the commits made
      * in them (also counted in commits), the candidates a region left to a
      * later round or to the global passes (counted again when tried again),

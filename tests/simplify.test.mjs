@@ -52,7 +52,7 @@ import { spawnSync } from 'node:child_process';
 // The CGAL tool's runner and its proven "H <= limit" decision (shared with the LOD-chain suite).
 import { HAUSDORFF, hausdorffWithin, runHausdorff } from './lib/lodcheck.mjs';
 import {
-  corpusPath, sharedRoot, describeRun, lodpipeBin, manifestInputs, readDocument, readRaw, repoRoot, runHealthProblems, runLodpipe, successStderrProblems, tempDir, featureSkipReason, isExecutable,
+  corpusPath, sharedRoot, describeRun, lodpipeBin, manifestInputs, readDocument, readRaw, repoRoot, runHealthProblems, runLodpipe, successStderrProblems, tempDir, skipWithoutBinary, isExecutable,
 } from './lib/gltf.mjs';
 
 // ---------------------------------------------------------------------------------------------
@@ -74,9 +74,9 @@ const fmt = (x, d = 4) => (typeof x === 'number' && Number.isFinite(x) ? Number(
 const pct = (x) => (Number.isFinite(x) ? `${(100 * x).toFixed(1)} %` : String(x));
 
 
-/** Reason to skip the corpus run, or false: the binary must exist and list `simplify` in --help. */
+/** Reason to skip the corpus run, or false: the binary (and LODPIPE_BIN_FAST, when set) must exist. */
 function simplifySkipReason() {
-  const missing = featureSkipReason(/\bsimplify\b/, 'list a simplify command');
+  const missing = skipWithoutBinary();
   if (missing) return missing;
   if (FAST_BIN && !isExecutable(FAST_BIN)) return `LODPIPE_BIN_FAST=${FAST_BIN} is not an executable`;
   return false;
@@ -827,6 +827,10 @@ for (const { rel, levels, extra } of VERIFY_RUNS) {
     const summary = JSON.parse(fs.readFileSync(path.join(out, 'simplify.json'), 'utf8'));
     const done = summary.meshes.flatMap((m) => m.levels);
     assert.ok(done.length === levels.split(',').length && done.some((l) => l.commits > 0), 'the checker ran over real commits');
+    // the checker ran: one passed check after every commit and one at the level's end, at least
+    for (const [k, l] of done.entries()) {
+      assert.ok(l.verify_checks >= l.commits + 1, `level ${k + 1}: ${l.verify_checks} invariant checks for ${l.commits} commits`);
+    }
     // and over clusters registered whole and split again (fandisk: hundreds of each)
     assert.ok(done.some((l) => l.clusters.merges > 0) && done.some((l) => l.clusters.splits > 0),
       `the checker saw clusters merged and split: ${JSON.stringify(done.map((l) => l.clusters))}`);
