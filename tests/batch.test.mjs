@@ -14,11 +14,11 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { spawnSync } from 'node:child_process';
 import {
-  corpusPath, describeRun, featureSkipReason, oneLineErrorProblems, repoRoot, runHealthProblems, runLodpipe,
+  corpusPath, describeRun, oneLineErrorProblems, skipWithoutBinary, repoRoot, runHealthProblems, runLodpipe,
   sharedRoot, tempDir,
 } from './lib/gltf.mjs';
 
-const skip = featureSkipReason(/batch SRC_DIR/, 'offer the batch command');
+const skip = skipWithoutBinary();
 const EXIT_SOME_FAILED = 5;
 
 const ASSETS = [

@@ -28,7 +28,7 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { spawnSync } from 'node:child_process';
 import {
-  corpusPath, describeRun, lodpipeBin, manifestInputs, readRaw, repoRoot, runHealthProblems, runLodpipe, tempDir, featureSkipReason,
+  corpusPath, describeRun, lodpipeBin, manifestInputs, readRaw, repoRoot, runHealthProblems, runLodpipe, tempDir, skipWithoutBinary,
 } from './lib/gltf.mjs';
 import { modeOf, sceneNodes } from './lib/lodcheck.mjs';
 import { buildFixture, writeFixture } from './lib/lodfixture.mjs';
@@ -348,10 +348,7 @@ test('self-test: the client checks pass a correct hand-made chain and catch plan
 // ---------------------------------------------------------------------------------------------
 // Every output
 
-function skipReason() {
-  return featureSkipReason(/-o OUT/, 'document the main job (-o OUT)');
-}
-const skip = skipReason();
+const skip = skipWithoutBinary();
 
 const GLTF_TOO = ['default_scene.glb', 'CesiumMilkTruck', 'pirate'];
 const assets = [

@@ -321,16 +321,19 @@ test('planted differences are caught', async (t) => {
     const relT = 'scenes/CesiumMilkTruck/CesiumMilkTruck.gltf';
     const b = await plantBase(st, relT);
     b.json.materials[0].name += 'x';
-    delete b.json.meshes[0].primitives[0].mode; // (absent in the input)
-    b.json.meshes[0].primitives[0].mode = 4; // default made explicit: still a difference
     b.json.nodes[1].matrix[12] += 1e-6;
     fs.writeFileSync(b.out, JSON.stringify(b.json));
     const res = await analyzeConversion(corpusPath(relT), b.out, b.dir);
     assert.ok(res.json.some((d) => d.startsWith('/materials/0/name')), `json: ${res.json}`);
     assert.ok(res.json.some((d) => d.startsWith('/nodes/1/matrix/12')), `json: ${res.json}`);
-    if (readRaw(corpusPath(relT)).json.meshes[0].primitives[0].mode === undefined) {
-      assert.ok(res.json.some((d) => d.startsWith('/meshes/0/primitives/0/mode') && /spec default/.test(d)), `json: ${res.json}`);
-    }
+    // the spec default made explicit is still a difference (an input whose primitive has no mode)
+    const relM = 'animated/simple_skin.gltf';
+    assert.equal(readRaw(corpusPath(relM)).json.meshes[0].primitives[0].mode, undefined, `test premise: ${relM} primitive 0 has no mode`);
+    const m = await plantBase(st, relM);
+    m.json.meshes[0].primitives[0].mode = 4;
+    fs.writeFileSync(m.out, JSON.stringify(m.json));
+    const rm = await analyzeConversion(corpusPath(relM), m.out, m.dir);
+    assert.ok(rm.json.some((d) => d.startsWith('/meshes/0/primitives/0/mode') && /spec default/.test(d)), `json: ${rm.json}`);
     // extras dropped from the output
     const relE = 'scans/cow.glb';
     const e = await plantBase(st, relE);

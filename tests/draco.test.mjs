@@ -7,6 +7,10 @@
 // write its document just before encoding (the same chains, uncompressed). Then:
 // - no validator error the input did not have; KHR_draco_mesh_compression in extensionsUsed and
 //   extensionsRequired; no triangle primitive of a chain left uncompressed;
+// - the file's chains are the summary's (every instance of a mesh with levels has its chain, as long);
+//   an input of 2,500 triangles or more has at least one;
+// - R itself, by the main job's checker (lib/lodcheck.mjs analyzeChain, without CGAL): LOD0 has the
+//   input's geometry, the chains' structure, nothing else changed, no new validator error;
 // - every Draco primitive decoded by draco3d against the same primitive of R: the same number of
 //   triangles, and the same triangles as oriented sets, each decoded corner within one quantization step
 //   (the stream's grid: range / (2^bits - 1)) of its exact corner on every axis (integer positions:
@@ -32,10 +36,10 @@ import path from 'node:path';
 import { spawnSync } from 'node:child_process';
 import draco3d from 'draco3d';
 import {
-  corpusPath, describeRun, featureSkipReason, lodpipeBin, manifestInputs, readRaw, repoRoot, runLodpipe, validateFileCached,
+  corpusPath, describeRun, lodpipeBin, manifestInputs, readRaw, repoRoot, runLodpipe, skipWithoutBinary, validateFileCached,
 } from './lib/gltf.mjs';
 import {
-  HAUSDORFF, SLACK_REL, dequant, hausdorffAvailable, hausdorffWithin, newValidatorErrorMessages, primTriangles, rawPrimGeometry,
+  CHAIN_ASPECTS, HAUSDORFF, SLACK_REL, analyzeChain, dequant, formatProblems, hausdorffAvailable, hausdorffWithin, newValidatorErrorMessages, primTriangles, rawPrimGeometry,
 } from './lib/lodcheck.mjs';
 
 const FAST_BIN = process.env.LODPIPE_BIN_FAST || '';
@@ -46,8 +50,11 @@ const DEFAULT_SCENE = path.join(repoRoot, 'assets', 'default_scene.glb');
 const DRACO = 'KHR_draco_mesh_compression';
 const CONFIGURED_POSITION_BITS = 14;
 const LOD0_CGAL_MAX_TRIANGLES = 20000;
+// every valid corpus asset of this many triangles gets a level (2026-12-03: the smallest that does is
+// CesiumMilkTruck, 2,856; ShapeCollection's 2,390 in simple shapes get none)
+const CHAIN_EXPECTED_MIN_TRIANGLES = 2500;
 
-const skip = featureSkipReason(/--draco/, 'offer --draco');
+const skip = skipWithoutBinary();
 const hausdorffSkip = hausdorffAvailable() ? false : `${HAUSDORFF} not built (run make hausdorff)`;
 
 let dir = null;
@@ -342,6 +349,32 @@ for (const { input, extra, label } of draco_runs) {
       for (const level of meta.levels) chainMeshes.add(level.mesh);
     });
     for (const mesh of summary.meshes) chainMeshes.add(mesh.mesh);
+
+    await t.test('the chains are the summary\'s: every instance of a mesh with levels has them; 2,500 triangles or more give a level', () => {
+      const problems = [];
+      for (const mesh of summary.meshes) {
+        // summary: nodes = the number of scene nodes that instance the mesh
+        const mine = chains.filter((x) => x.meta.levels[0].mesh === mesh.mesh);
+        if (mesh.levels.length && mine.length !== mesh.nodes) problems.push(`mesh ${mesh.mesh}: ${mesh.levels.length} level(s) in the summary, ${mine.length} chain(s) in the file for ${mesh.nodes} instance(s)`);
+        if (!mesh.levels.length && mine.length) problems.push(`mesh ${mesh.mesh}: no level in the summary, ${mine.length} chain(s) in the file`);
+        for (const c of mine) {
+          if (c.meta.levels.length !== mesh.levels.length + 1) problems.push(`node ${c.n}: ${c.meta.levels.length - 1} level(s) in the file, ${mesh.levels.length} in the summary`);
+        }
+      }
+      if (input.triangles >= CHAIN_EXPECTED_MIN_TRIANGLES && !chains.length) problems.push(`${input.triangles} triangles and no chain`);
+      assert.deepEqual(problems, []);
+    });
+
+    await t.test('the reference R (the chains before encoding): LOD0 is the input\'s geometry, chains and everything else as the plain main job makes them', async () => {
+      // R's levels are simplified to eps minus the quantization budget, and LOD0 records its quantization
+      // bound; the vertices keep the input's order (the streams carry them): so the switching and prefix
+      // aspects do not apply, and soundness is the CGAL subtest below, on the decoded data
+      const placement = extra.includes('optimal') ? 'optimal' : 'half-edge';
+      const res = await analyzeChain({ inFile: input.file, outFile: ref, summary, hausdorff: false, placement });
+      const bad = CHAIN_ASPECTS.filter(([k]) => !['soundness', 'prefix', 'switching'].includes(k) && res.problems[k].length)
+        .map(([k, title]) => formatProblems(title, res.problems[k]));
+      assert.deepEqual(bad, []);
+    });
 
     const decodedMeshes = new Map(); // mesh -> [{positions, faces}]
     await t.test('draco3d: every chain primitive compressed; same triangles, positions within one quantization step', () => {

@@ -50,24 +50,8 @@ export function isExecutable(f) {
   }
 }
 
-/**
- * Skip reason for a suite that needs the lodpipe binary to offer a feature, or false: the binary must
- * exist and its --help must match `pattern` (`what` names the feature in the reason).
- */
-export function featureSkipReason(pattern, what) {
-  if (!isExecutable(lodpipeBin)) return `lodpipe binary not found at ${lodpipeBin} (build it or set LODPIPE_BIN)`;
-  const r = spawnSync(lodpipeBin, ['--help'], { encoding: 'utf8', timeout: 60000 });
-  if (!pattern.test(`${r.stdout}${r.stderr}`)) return `${lodpipeBin} --help does not ${what} yet`;
-  return false;
-}
-
 export function binaryExists() {
-  try {
-    fs.accessSync(lodpipeBin, fs.constants.X_OK);
-    return fs.statSync(lodpipeBin).isFile();
-  } catch {
-    return false;
-  }
+  return isExecutable(lodpipeBin);
 }
 
 /** Reason string for { skip } when the binary under test is missing, else false. */

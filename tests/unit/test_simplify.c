@@ -1167,6 +1167,11 @@ static void test_thin_plate_no_self_intersection(void)
         run rn;
         if (run_simplify(&rn, &m, fractions, 4, 1, 0) == LP_OK) {
             check_topology("box", &rn, 2, 0);
+            /* not by refusing everything: the six flat sides simplify (a side of n x n cells is 2 n^2 triangles) */
+            const uint32_t last = rn.r.levels[rn.r.level_count - 1].triangle_count;
+            CHECK(last <= m.nt / 4, "box %u x %u cells: the coarsest level kept %u of %u triangles", cases[c].n,
+                  cases[c].n, last, m.nt);
+            printf("#   thin box %u x %u cells, t %g: %u -> %u triangles\n", cases[c].n, cases[c].n, cases[c].t, m.nt, last);
             for (uint32_t k = 0; k < rn.r.level_count; ++k) {
                 uint32_t ex[2], n = self_intersections(&rn, k, ex);
                 CHECK(n == 0,
@@ -1192,6 +1197,10 @@ static void check_regions_never_cross(const char *name, const mesh *m, const dou
         run rn;
         if (run_simplify(&rn, m, fractions, count, 2, 0) == LP_OK) {
             check_topology(name, &rn, euler, loops);
+            const uint32_t last = rn.r.levels[rn.r.level_count - 1].triangle_count;
+            CHECK(last <= m->nt / 4, "%s, regions of %u: the coarsest level kept %u of %u triangles", name, sizes[c], last,
+                  m->nt);
+            printf("#   %s, regions of %u: %u -> %u triangles\n", name, sizes[c], m->nt, last);
             for (uint32_t k = 0; k < rn.r.level_count; ++k) {
                 uint32_t ex[2], bad = self_intersections(&rn, k, ex);
                 CHECK(bad == 0, "%s, regions of %u: level %u (%u triangles) has %u intersecting face pairs, e.g. %u and %u",
