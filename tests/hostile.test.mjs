@@ -120,6 +120,7 @@ for (const [file, e] of Object.entries(regressionManifest)) {
         if (e.warning && !r.stderr.includes(e.warning)) p.push(`no warning containing "${e.warning}"`);
       } else {
         p.push(...oneLineErrorProblems(r.stderr));
+        if (e.error && !r.stderr.includes(e.error)) p.push(`the error does not say "${e.error}"`);
         if (listFilesRecursive(dir).length) p.push('files left behind');
       }
       assert.deepEqual(p, [], describeRun(r));

@@ -82,6 +82,11 @@ struct Prop {
     const char *name;
     Kind kind;
     const struct Shape *shape; // for OBJ / ARR_OBJ: the nested object's shape
+    // for UINT / ARR_UINT: the root array the index (each element) refers to. Checked
+    // here for every reference the C side does not read itself: lodpipe appends nodes,
+    // meshes, accessors and bufferViews, so an index one past the end would otherwise
+    // come out pointing at a LOD node or a LOD index accessor, silently valid
+    const char *refers = nullptr;
 };
 
 struct Shape {
@@ -138,14 +143,31 @@ bool kind_ok(const ojson &v, Kind k)
     return false;
 }
 
-void check_object(const ojson &o, const Shape &shape, const std::string &path);
+void check_object(const ojson &root, const ojson &o, const Shape &shape, const std::string &path);
 
-void check_value(const ojson &v, const Prop &p, const std::string &path)
+size_t root_count(const ojson &root, const char *array)
+{
+    auto it = root.find(array);
+    return it != root.end() && it->is_array() ? it->size() : 0;
+}
+
+void check_reference(const ojson &root, const ojson &v, const char *refers, const std::string &path)
+{
+    const size_t count = root_count(root, refers);
+    if (v.get<uint64_t>() >= count)
+        fail(GLTF_INVALID, path + " = " + std::to_string(v.get<uint64_t>()) + " does not exist (" + std::to_string(count) +
+                               " " + refers + ")");
+}
+
+void check_value(const ojson &root, const ojson &v, const Prop &p, const std::string &path)
 {
     if (!kind_ok(v, p.kind)) fail(GLTF_INVALID, path + " must be " + kind_name(p.kind));
-    if (p.shape && p.kind == OBJ) check_object(v, *p.shape, path);
+    if (p.refers && p.kind == UINT) check_reference(root, v, p.refers, path);
+    if (p.refers && p.kind == ARR_UINT)
+        for (size_t i = 0; i < v.size(); ++i) check_reference(root, v[i], p.refers, path + "[" + std::to_string(i) + "]");
+    if (p.shape && p.kind == OBJ) check_object(root, v, *p.shape, path);
     if (p.shape && p.kind == ARR_OBJ)
-        for (size_t i = 0; i < v.size(); ++i) check_object(v[i], *p.shape, path + "[" + std::to_string(i) + "]");
+        for (size_t i = 0; i < v.size(); ++i) check_object(root, v[i], *p.shape, path + "[" + std::to_string(i) + "]");
 }
 
 // "extensions" must be an object of objects; "extras" may be anything.
@@ -163,16 +185,16 @@ void check_common(const ojson &o, const std::string &path)
     if (name != o.end() && !name->is_string()) fail(GLTF_INVALID, path + ".name must be a string");
 }
 
-void check_object(const ojson &o, const Shape &shape, const std::string &path)
+void check_object(const ojson &root, const ojson &o, const Shape &shape, const std::string &path)
 {
     check_common(o, path);
     for (const Prop &p : shape.props) {
         auto it = o.find(p.name);
-        if (it != o.end()) check_value(*it, p, path.empty() ? std::string(p.name) : path + "." + p.name);
+        if (it != o.end()) check_value(root, *it, p, path.empty() ? std::string(p.name) : path + "." + p.name);
     }
 }
 
-const Shape kTextureInfo{{{"index", UINT, nullptr}, {"texCoord", UINT, nullptr}, {"scale", NUM, nullptr}, {"strength", NUM, nullptr}}};
+const Shape kTextureInfo{{{"index", UINT, nullptr, "textures"}, {"texCoord", UINT, nullptr}, {"scale", NUM, nullptr}, {"strength", NUM, nullptr}}};
 const Shape kPbr{{{"baseColorFactor", ARR_NUM, nullptr}, {"baseColorTexture", OBJ, &kTextureInfo},
                   {"metallicFactor", NUM, nullptr}, {"roughnessFactor", NUM, nullptr},
                   {"metallicRoughnessTexture", OBJ, &kTextureInfo}}};
@@ -180,15 +202,15 @@ const Shape kMaterial{{{"pbrMetallicRoughness", OBJ, &kPbr}, {"normalTexture", O
                        {"occlusionTexture", OBJ, &kTextureInfo}, {"emissiveTexture", OBJ, &kTextureInfo},
                        {"emissiveFactor", ARR_NUM, nullptr}, {"alphaMode", STR, nullptr},
                        {"alphaCutoff", NUM, nullptr}, {"doubleSided", BOOL, nullptr}}};
-const Shape kSparseIndices{{{"bufferView", UINT, nullptr}, {"byteOffset", UINT, nullptr}, {"componentType", UINT, nullptr}}};
-const Shape kSparseValues{{{"bufferView", UINT, nullptr}, {"byteOffset", UINT, nullptr}}};
+const Shape kSparseIndices{{{"bufferView", UINT, nullptr, "bufferViews"}, {"byteOffset", UINT, nullptr}, {"componentType", UINT, nullptr}}};
+const Shape kSparseValues{{{"bufferView", UINT, nullptr, "bufferViews"}, {"byteOffset", UINT, nullptr}}};
 const Shape kSparse{{{"count", UINT, nullptr}, {"indices", OBJ, &kSparseIndices}, {"values", OBJ, &kSparseValues}}};
-const Shape kAccessor{{{"bufferView", UINT, nullptr}, {"byteOffset", UINT, nullptr}, {"componentType", UINT, nullptr},
+const Shape kAccessor{{{"bufferView", UINT, nullptr, "bufferViews"}, {"byteOffset", UINT, nullptr}, {"componentType", UINT, nullptr},
                        {"normalized", BOOL, nullptr}, {"count", UINT, nullptr}, {"type", STR, nullptr},
                        {"max", ARR_NUM, nullptr}, {"min", ARR_NUM, nullptr}, {"sparse", OBJ, &kSparse}}};
-const Shape kTarget{{{"node", UINT, nullptr}, {"path", STR, nullptr}}};
+const Shape kTarget{{{"node", UINT, nullptr, "nodes"}, {"path", STR, nullptr}}};
 const Shape kChannel{{{"sampler", UINT, nullptr}, {"target", OBJ, &kTarget}}};
-const Shape kAnimSampler{{{"input", UINT, nullptr}, {"output", UINT, nullptr}, {"interpolation", STR, nullptr}}};
+const Shape kAnimSampler{{{"input", UINT, nullptr, "accessors"}, {"output", UINT, nullptr, "accessors"}, {"interpolation", STR, nullptr}}};
 const Shape kAnimation{{{"channels", ARR_OBJ, &kChannel}, {"samplers", ARR_OBJ, &kAnimSampler}}};
 const Shape kAsset{{{"version", STR, nullptr}, {"minVersion", STR, nullptr}, {"generator", STR, nullptr}, {"copyright", STR, nullptr}}};
 const Shape kBuffer{{{"uri", STR, nullptr}, {"byteLength", UINT, nullptr}}};
@@ -206,8 +228,9 @@ const Shape kNode{{{"camera", UINT, nullptr}, {"children", ARR_UINT, nullptr}, {
                    {"scale", ARR_NUM, nullptr}, {"translation", ARR_NUM, nullptr}, {"weights", ARR_NUM, nullptr}}};
 const Shape kSampler{{{"magFilter", UINT, nullptr}, {"minFilter", UINT, nullptr}, {"wrapS", UINT, nullptr}, {"wrapT", UINT, nullptr}}};
 const Shape kScene{{{"nodes", ARR_UINT, nullptr}}};
-const Shape kSkin{{{"inverseBindMatrices", UINT, nullptr}, {"skeleton", UINT, nullptr}, {"joints", ARR_UINT, nullptr}}};
-const Shape kTexture{{{"sampler", UINT, nullptr}, {"source", UINT, nullptr}}};
+const Shape kSkin{{{"inverseBindMatrices", UINT, nullptr, "accessors"}, {"skeleton", UINT, nullptr, "nodes"},
+                   {"joints", ARR_UINT, nullptr, "nodes"}}};
+const Shape kTexture{{{"sampler", UINT, nullptr, "samplers"}, {"source", UINT, nullptr, "images"}}};
 const Shape kRoot{{{"extensionsUsed", ARR_STR, nullptr}, {"extensionsRequired", ARR_STR, nullptr},
                    {"accessors", ARR_OBJ, &kAccessor}, {"animations", ARR_OBJ, &kAnimation},
                    {"asset", OBJ, &kAsset}, {"buffers", ARR_OBJ, &kBuffer}, {"bufferViews", ARR_OBJ, &kBufferView},
@@ -215,6 +238,89 @@ const Shape kRoot{{{"extensionsUsed", ARR_STR, nullptr}, {"extensionsRequired", 
                    {"meshes", ARR_OBJ, &kMesh}, {"nodes", ARR_OBJ, &kNode}, {"samplers", ARR_OBJ, &kSampler},
                    {"scene", UINT, nullptr}, {"scenes", ARR_OBJ, &kScene}, {"skins", ARR_OBJ, &kSkin},
                    {"textures", ARR_OBJ, &kTexture}}};
+
+// References the schema cannot declare: a channel's sampler indexes its own
+// animation's samplers; KHR_materials_variants mappings name materials and the
+// root's variants; EXT_mesh_gpu_instancing maps names to accessors; a
+// KHR_animation_pointer pointer that names an element of an array lodpipe
+// appends to (a pointer past the end would come out aiming at a LOD node).
+bool has_ext(const ojson &o, const char *name);
+const ojson &array_of(const ojson &root, const char *name);
+
+void check_local_references(const ojson &root)
+{
+    const ojson &animations = array_of(root, "animations");
+    for (size_t a = 0; a < animations.size(); ++a) {
+        const size_t samplers = animations[a].value("samplers", ojson::array()).size();
+        const ojson &channels = animations[a].value("channels", ojson::array());
+        for (size_t c = 0; c < channels.size(); ++c) {
+            const std::string path = at("animations", a) + ".channels[" + std::to_string(c) + "]";
+            if (!channels[c].contains("sampler")) fail(GLTF_INVALID, path + ".sampler is missing");
+            const uint64_t sampler = channels[c]["sampler"].get<uint64_t>();
+            if (sampler >= samplers)
+                fail(GLTF_INVALID, path + ".sampler = " + std::to_string(sampler) + " does not exist (" +
+                                       std::to_string(samplers) + " samplers in the animation)");
+            auto target = channels[c].find("target");
+            if (target == channels[c].end() || !has_ext(*target, "KHR_animation_pointer")) continue;
+            const ojson &pointer = (*target)["extensions"]["KHR_animation_pointer"].value("pointer", ojson());
+            if (!pointer.is_string()) continue;
+            const std::string ptr = pointer.get<std::string>();
+            for (const char *array : {"nodes", "meshes", "accessors", "bufferViews"}) {
+                const std::string prefix = std::string("/") + array + "/";
+                if (ptr.compare(0, prefix.size(), prefix) != 0) continue;
+                size_t end = prefix.size();
+                uint64_t index = 0;
+                while (end < ptr.size() && ptr[end] >= '0' && ptr[end] <= '9' && index < (uint64_t(1) << 40))
+                    index = index * 10 + uint64_t(ptr[end++] - '0');
+                if (end > prefix.size() && index >= root_count(root, array))
+                    fail(GLTF_INVALID, path + ".target.extensions.KHR_animation_pointer.pointer \"" + ptr +
+                                           "\" names an element that does not exist (" +
+                                           std::to_string(root_count(root, array)) + " " + array + ")");
+            }
+        }
+    }
+    // KHR_materials_variants: the mappings are copied onto every LOD primitive
+    size_t variants = 0;
+    if (has_ext(root, "KHR_materials_variants")) {
+        const ojson &list = root["extensions"]["KHR_materials_variants"].value("variants", ojson::array());
+        variants = list.is_array() ? list.size() : 0;
+    }
+    const ojson &meshes = array_of(root, "meshes");
+    for (size_t m = 0; m < meshes.size(); ++m) {
+        const ojson &prims = meshes[m].value("primitives", ojson::array());
+        for (size_t p = 0; p < prims.size(); ++p) {
+            if (!has_ext(prims[p], "KHR_materials_variants")) continue;
+            const std::string path = at("meshes", m) + ".primitives[" + std::to_string(p) + "].extensions.KHR_materials_variants";
+            const ojson &mappings = prims[p]["extensions"]["KHR_materials_variants"].value("mappings", ojson::array());
+            if (!mappings.is_array()) fail(GLTF_INVALID, path + ".mappings must be an array");
+            for (size_t k = 0; k < mappings.size(); ++k) {
+                const std::string mp = path + ".mappings[" + std::to_string(k) + "]";
+                if (!mappings[k].is_object()) fail(GLTF_INVALID, mp + " must be an object");
+                auto material = mappings[k].find("material");
+                if (material == mappings[k].end() || !is_uint(*material))
+                    fail(GLTF_INVALID, mp + ".material is missing or not a non-negative integer");
+                check_reference(root, *material, "materials", mp + ".material");
+                const ojson &list = mappings[k].value("variants", ojson::array());
+                if (!kind_ok(list, ARR_UINT)) fail(GLTF_INVALID, mp + ".variants must be an array of non-negative integers");
+                for (size_t i = 0; i < list.size(); ++i)
+                    if (list[i].get<uint64_t>() >= variants)
+                        fail(GLTF_INVALID, mp + ".variants[" + std::to_string(i) + "] = " + std::to_string(list[i].get<uint64_t>()) +
+                                               " does not exist (" + std::to_string(variants) + " variants)");
+            }
+        }
+    }
+    const ojson &nodes = array_of(root, "nodes");
+    for (size_t n = 0; n < nodes.size(); ++n) {
+        if (!has_ext(nodes[n], "EXT_mesh_gpu_instancing")) continue;
+        const ojson &attributes = nodes[n]["extensions"]["EXT_mesh_gpu_instancing"].value("attributes", ojson::object());
+        if (!attributes.is_object()) continue;
+        for (auto it = attributes.begin(); it != attributes.end(); ++it) {
+            const std::string path = at("nodes", n) + ".extensions.EXT_mesh_gpu_instancing.attributes." + it.key();
+            if (!is_uint(it.value())) fail(GLTF_INVALID, path + " must be a non-negative integer");
+            check_reference(root, it.value(), "accessors", path);
+        }
+    }
+}
 
 // Primitive attributes and morph targets map names to accessor indices.
 void check_attribute_maps(const ojson &root)
@@ -972,7 +1078,8 @@ void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_
     }
     if (!doc->json.is_object()) fail(GLTF_INVALID, "the JSON document is not an object");
     check_asset_and_extensions(doc->json);
-    check_object(doc->json, kRoot, "");
+    check_object(doc->json, doc->json, kRoot, "");
+    check_local_references(doc->json);
     check_attribute_maps(doc->json);
     check_buffers_and_views(doc->json, opt, doc->dir);
     if (glb) {
