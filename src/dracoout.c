@@ -111,13 +111,15 @@ static void level_boxes(const scene_mesh *mesh, const weld_result *w, const simp
     }
 }
 
-/* The largest grid bound over the primitives at `bits`. */
+/* The largest grid bound over the primitives at `bits`. Integer positions
+ * are stored losslessly, unless `placed`: a level that placed vertices writes
+ * them as a float POSITION accessor of its own (lodchain.c), quantized. */
 static double boxes_bound(const scene *s, const scene_mesh *mesh, const double *lo, const double *hi,
-                          const uint8_t *used, int bits)
+                          const uint8_t *used, int bits, int placed)
 {
     double worst = 0;
     for (uint32_t p = 0; p < mesh->primitive_count; ++p) {
-        if (!used[p] || !float_positions(s, &mesh->primitives[p])) continue;
+        if (!used[p] || (!placed && !float_positions(s, &mesh->primitives[p]))) continue;
         dracoout_grid g;
         dracoout_grid_of(lo + 3 * p, hi + 3 * p, bits, &g);
         if (g.bound > worst) worst = g.bound;
@@ -125,8 +127,8 @@ static double boxes_bound(const scene *s, const scene_mesh *mesh, const double *
     return worst;
 }
 
-int dracoout_budget(const scene *s, uint32_t m, const dracoout_options *o, double smallest_eps, int *bits,
-                    double *budget, lp_error *err)
+int dracoout_budget(const scene *s, uint32_t m, const dracoout_options *o, double smallest_eps, int placing,
+                    int *bits, double *budget, lp_error *err)
 {
     const scene_mesh *mesh = &s->meshes[m];
     const size_t n = (size_t)mesh->primitive_count + 1;
@@ -140,7 +142,7 @@ int dracoout_budget(const scene *s, uint32_t m, const dracoout_options *o, doubl
     }
     level_boxes(mesh, NULL, NULL, lo, hi, used);
     for (*bits = o->position_bits;; ++*bits) {
-        *budget = boxes_bound(s, mesh, lo, hi, used, *bits);
+        *budget = boxes_bound(s, mesh, lo, hi, used, *bits, placing);
         if (*budget <= 0.25 * smallest_eps || *bits >= DRACOOUT_MAX_BITS) break;
     }
     free(lo);
@@ -178,7 +180,8 @@ int dracoout_plan_mesh(const scene *s, uint32_t m, const weld_result *w, const s
     int rc = LP_OK;
     for (int bits = start_bits;; ++bits) {
         for (uint32_t k = 0; k <= levels; ++k)
-            plan->added_error[k] = boxes_bound(s, mesh, lo + 3 * n * k, hi + 3 * n * k, used + n * k, bits);
+            plan->added_error[k] = boxes_bound(s, mesh, lo + 3 * n * k, hi + 3 * n * k, used + n * k, bits,
+                                               k && r->levels[k - 1].positions);
         uint32_t worst = 0;
         double excess = 0;
         for (uint32_t i = 0; i < kept_count; ++i) {

@@ -83,9 +83,12 @@ typedef struct dracoout_plan {
  * *bits is the configured position bits, raised while Q_0 > smallest_eps / 4
  * (so the levels keep most of their eps); *budget is Q_0 at *bits. Returns
  * LP_PROMISE when even DRACOOUT_MAX_BITS leaves Q_0 > smallest_eps / 2 (float32
- * cannot resolve the mesh at that eps, e.g. far from the origin). */
-int dracoout_budget(const scene *s, uint32_t m, const dracoout_options *o, double smallest_eps, int *bits,
-                    double *budget, lp_error *err);
+ * cannot resolve the mesh at that eps, e.g. far from the origin). `placing`:
+ * some level may place vertices (full-edge placement); such a level writes
+ * float positions even where LOD0's are integers (stored losslessly, Q 0),
+ * so Q_0 is then taken as if every primitive's positions were floats. */
+int dracoout_budget(const scene *s, uint32_t m, const dracoout_options *o, double smallest_eps, int placing,
+                    int *bits, double *budget, lp_error *err);
 
 /* Picks mesh m's position bits and the quantization bound of LOD0 and every
  * ladder level (those lodchain will keep must fit their eps). Returns LP_OK,

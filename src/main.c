@@ -664,7 +664,8 @@ static int cmd_lod(const cli *c)
         double budget = 0, reserved[SIMPLIFY_MAX_LEVELS];
         simplify_options mesh_opt = opt;
         if (draco && mesh->diagonal > 0) {
-            rc = dracoout_budget(&s, m, &draco_opt, c->levels[0] * mesh->diagonal, &bits, &budget, &err);
+            rc = dracoout_budget(&s, m, &draco_opt, c->levels[0] * mesh->diagonal, mesh_opt.full_edge_levels != 0, &bits,
+                                 &budget, &err);
             for (uint32_t k = 0; k < opt.level_count; ++k) reserved[k] = c->levels[k] - budget / mesh->diagonal;
             mesh_opt.fractions = reserved;
         }
