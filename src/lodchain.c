@@ -447,11 +447,17 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
     jsonw_free(&j);
     if (carrier < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
     char from[96], to[96], value[32];
-    for (const char *const *key = (const char *const[]){"skin", "weights", NULL}; *key; ++key) {
+    for (const char *const *key = (const char *const[]){"skin", "weights", "extensions/EXT_mesh_gpu_instancing", NULL};
+         *key; ++key) {
         snprintf(from, sizeof from, "/nodes/%u/%s", n, *key);
         snprintf(to, sizeof to, "/nodes/%lld/%s", (long long)carrier, *key);
         if (gltf_copy_json(s->doc, from, to) == 0) gltf_remove_json(s->doc, from);
     }
+    /* the instancing went with the mesh; an extensions object it leaves empty goes too */
+    snprintf(from, sizeof from, "/nodes/%u/extensions", n);
+    char *left = gltf_get_json(s->doc, from);
+    if (left && strcmp(left, "{}") == 0) gltf_remove_json(s->doc, from);
+    free(left);
     snprintf(from, sizeof from, "/nodes/%u/mesh", n);
     gltf_remove_json(s->doc, from);
     snprintf(to, sizeof to, "/nodes/%u/children/-", n);
@@ -478,8 +484,9 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
     return carrier;
 }
 
-/* A LOD node named after scene node `named`, copying the transform, skin and
- * weights of document node `from`. */
+/* A LOD node named after scene node `named`, copying the transform, skin,
+ * weights and EXT_mesh_gpu_instancing of document node `from` (a client
+ * shows the LOD node in its place: every instance, at every level). */
 static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64_t lod_mesh, uint32_t number,
                               lp_error *err)
 {
@@ -499,7 +506,9 @@ static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64
     int64_t id = j.failed ? -1 : gltf_append_json(s->doc, "nodes", j.text);
     jsonw_free(&j);
     if (id < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
-    static const char *const kCopied[] = {"matrix", "translation", "rotation", "scale", "skin", "weights"};
+    static const char *const kCopied[] = {"matrix",  "translation", "rotation",
+                                          "scale",   "skin",        "weights",
+                                          "extensions/EXT_mesh_gpu_instancing"};
     for (size_t k = 0; k < sizeof kCopied / sizeof kCopied[0]; ++k) {
         char from[96], to[96];
         snprintf(from, sizeof from, "/nodes/%lld/%s", (long long)from_node, kCopied[k]);
@@ -509,6 +518,30 @@ static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64
     return id;
 }
 
+/* EXT_mesh_gpu_instancing on document node `node`: the largest absolute
+ * component of its instances' SCALE (1 without instancing or SCALE): an
+ * instance's size on screen is the node's times its own. */
+static int instance_max_scale(const scene *s, uint32_t node, double *scale, lp_error *err)
+{
+    *scale = 1.0;
+    char pointer[96];
+    snprintf(pointer, sizeof pointer, "/nodes/%u/extensions/EXT_mesh_gpu_instancing/attributes/SCALE", node);
+    char *text = gltf_get_json(s->doc, pointer);
+    if (!text) return LP_OK;
+    const long long index = strtoll(text, NULL, 10); /* the loader checked it names an accessor */
+    free(text);
+    float *v = NULL;
+    uint32_t count = 0, components = 0;
+    int rc = accessor_read_floats(s->doc, index, &v, &count, &components, err);
+    if (!rc && count) {
+        double best = 0;
+        for (size_t i = 0; i < (size_t)count * components; ++i) best = fmax(best, fabs((double)v[i]));
+        *scale = best;
+    }
+    free(v);
+    return rc;
+}
+
 /* MSFT_lod and the switching metadata on document node `node`, whose world
  * transform is scene node `placed`'s. */
 static int annotate_node(scene *s, int64_t node_id, uint32_t placed, uint32_t m, const lodchain_summary *chain,
@@ -516,7 +549,10 @@ static int annotate_node(scene *s, int64_t node_id, uint32_t placed, uint32_t m,
                          lp_error *err)
 {
     const uint32_t node = (uint32_t)node_id;
-    const double scale = scene_max_scale(s->nodes[placed].world);
+    double instance_scale;
+    int rc = instance_max_scale(s, node, &instance_scale, err);
+    if (rc) return rc;
+    const double scale = scene_max_scale(s->nodes[placed].world) * instance_scale;
     const double radius = 0.5 * diagonal * scale;
     jsonw ids = {0}, coverage = {0}, meta = {0};
     jsonw_raw(&ids, "{\"ids\":[");
@@ -573,7 +609,6 @@ static int annotate_node(scene *s, int64_t node_id, uint32_t placed, uint32_t m,
     jsonw_number(&coverage, switching_cull_coverage(&o->camera));
     jsonw_raw(&coverage, "]");
     jsonw_raw(&meta, "]}");
-    int rc = LP_OK;
     if (ids.failed || coverage.failed || meta.failed) rc = lp_fail(err, LP_INVALID, "out of memory");
     if (!rc) rc = set_json(s->doc, err, ids.text, "/nodes/%u/extensions/MSFT_lod", node);
     if (!rc) {

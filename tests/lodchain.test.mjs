@@ -412,6 +412,44 @@ for (const rel of ['scans/bunny.glb', 'animated/CesiumMan.glb', 'compressed/Dens
   });
 }
 
+// EXT_mesh_gpu_instancing (no corpus asset has it): cow.glb made into five instances, one of them 4x
+// larger. Every LOD node must be instanced like the node (else a client shows one instance at the coarse
+// levels), and the switching distances follow the largest instance (4x the plain cow's).
+test('EXT_mesh_gpu_instancing: LOD nodes instanced like their node, distances for the largest instance', { skip: skipRuns }, async (t) => {
+  const dir = tempDir(t);
+  const plainIn = corpusPath('scans/cow.glb');
+  const raw = readRaw(plainIn);
+  const j = structuredClone(raw.json);
+  const b64 = (bytes) => `data:application/octet-stream;base64,${Buffer.from(bytes).toString('base64')}`;
+  j.buffers[0].uri = b64(raw.buffers[0]);
+  const instances = new Float32Array([0, 0, 0, 20, 0, 0, 40, 0, 0, 60, 0, 0, 80, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 4, 4, 4]);
+  const b = j.buffers.push({ byteLength: instances.byteLength, uri: b64(new Uint8Array(instances.buffer)) }) - 1;
+  const v = j.bufferViews.push({ buffer: b, byteLength: instances.byteLength }) - 1;
+  const tr = j.accessors.push({ bufferView: v, componentType: 5126, count: 5, type: 'VEC3', min: [0, 0, 0], max: [80, 0, 0] }) - 1;
+  const sc = j.accessors.push({ bufferView: v, byteOffset: 60, componentType: 5126, count: 5, type: 'VEC3', min: [1, 1, 1], max: [4, 4, 4] }) - 1;
+  const node = j.scenes[j.scene ?? 0].nodes[0];
+  assert.equal(j.nodes[node].mesh, 0, 'test premise: cow.glb\'s root node has the mesh');
+  j.nodes[node].extensions = { ...(j.nodes[node].extensions || {}), EXT_mesh_gpu_instancing: { attributes: { TRANSLATION: tr, SCALE: sc } } };
+  j.extensionsUsed = [...(j.extensionsUsed || []), 'EXT_mesh_gpu_instancing'];
+  const input = path.join(dir, 'cow_instanced.gltf');
+  fs.writeFileSync(input, JSON.stringify(j));
+  const run = mainJob(input, '.glb', [], {});
+  assert.deepEqual(runFatal(run), [], `the main job failed\n${describeRun(run.r)}`);
+  const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary, hausdorff: false });
+  await assertAspects(t, res, 'instanced cow', CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  await t.test('each distance is 4x the plain cow\'s (the same levels)', () => {
+    const plain = mainJob(plainIn, '.glb', [], {});
+    assert.deepEqual(runFatal(plain), [], describeRun(plain.r));
+    const levels = (file) => readRaw(file).json.nodes.find((n) => n.extras?.lodpipe)?.extras.lodpipe.levels.slice(1) || [];
+    const a = levels(run.out), p = levels(plain.out);
+    assert.ok(a.length > 0 && a.length === p.length, `levels: ${a.length} instanced, ${p.length} plain`);
+    a.forEach((l, i) => {
+      assert.equal(l.error, p[i].error, `level ${i + 1}: the same certified level`);
+      assert.ok(relClose(l.distance, 4 * p[i].distance, 1e-9), `level ${i + 1}: distance ${l.distance}, plain ${p[i].distance}`);
+    });
+  });
+});
+
 test('--placement optimal --optimal-levels 3,4: levels 1 and 2 are the default run\'s', { skip: skipRuns || hausdorffSkip }, async (t) => {
   const input = corpusPath('scans/bunny.glb');
   const run = mainJob(input, '.glb', ['--placement', 'optimal', '--optimal-levels', '3,4'], { tag: 'optimal34' });

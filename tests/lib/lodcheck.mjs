@@ -184,6 +184,16 @@ export function dequant(v, componentType, normalized) {
 }
 
 /** { array, size, count, componentType, normalized } of output accessor i (raw reader). */
+/** EXT_mesh_gpu_instancing: the largest absolute instance SCALE component of a node (1 without). */
+function instanceScale(raw, node) {
+  const a = node.extensions?.EXT_mesh_gpu_instancing?.attributes?.SCALE;
+  if (a === undefined) return 1;
+  const acc = rawAccessor(raw, a);
+  let best = 0;
+  for (let i = 0; i < acc.count * acc.size; i++) best = Math.max(best, Math.abs(dequant(acc.array[i], acc.componentType, acc.normalized)));
+  return acc.count ? best : 1;
+}
+
 function rawAccessor(raw, i) {
   const a = raw.json.accessors[i];
   return { array: raw.accessorArray(i), size: TYPE_SIZE[a.type], count: a.count, componentType: a.componentType, normalized: !!a.normalized, index: i };
@@ -738,6 +748,7 @@ export function foldCarriers(j, jin, nInNodes, notes) {
     n.children = n.children.slice(0, -1);
     for (const k of ['mesh', 'skin', 'weights']) if (cn[k] !== undefined) n[k] = cn[k];
     n.extensions = { ...(n.extensions || {}), MSFT_lod: cn.extensions.MSFT_lod };
+    if (cn.extensions.EXT_mesh_gpu_instancing) n.extensions.EXT_mesh_gpu_instancing = cn.extensions.EXT_mesh_gpu_instancing;
     if (cn.extras) n.extras = { ...(n.extras || {}), ...cn.extras };
     if (n.extras?.lodpipe?.levels?.[0]?.node === c) n.extras.lodpipe.levels[0].node = i;
     for (const a of j.animations || []) for (const ch of a.channels || []) if (ch.target?.node === c) ch.target.node = i;
@@ -910,6 +921,9 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
           if (!deepEqual(lod[key], want)) P('chain', `${lt}: ${key} ${JSON.stringify(lod[key])} differs from ${carried ? 'the carrier' : 'the node'}'s ${JSON.stringify(want)}`);
         }
         if (lod.camera !== undefined) P('chain', `${lt}: has a camera`);
+        // an instanced node's LOD nodes are instanced the same way (a client shows every instance at every level)
+        const inst = nodes[n].extensions?.EXT_mesh_gpu_instancing;
+        if (!deepEqual(lod.extensions?.EXT_mesh_gpu_instancing, inst)) P('chain', `${lt}: EXT_mesh_gpu_instancing ${JSON.stringify(lod.extensions?.EXT_mesh_gpu_instancing)} differs from the node's ${JSON.stringify(inst)}`);
         const want = e.levels[k]?.mesh;
         if (lod.mesh !== want) P('chain', `${lt}: mesh ${lod.mesh}, the --json summary says level ${e.levels[k]?.level} is mesh ${want}`);
         const key = `${m},${k}`;
@@ -966,7 +980,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
         if (cam[k] !== camera[k]) P('switching', `${tag}: extras.lodpipe.camera.${k} = ${cam[k]}, the run used ${camera[k]}`);
       }
       if (meta.levels.length !== ids.length + 1) P('switching', `${tag}: extras.lodpipe.levels has ${meta.levels.length} entries, expected ${ids.length + 1} (the node + one per LOD)`);
-      const s = maxColumnScale(world[n]);
+      const s = maxColumnScale(world[n]) * instanceScale(raw, nodes[n]);
       const l0 = meta.levels[0] || {};
       const want0 = { node: n, mesh: m, error: 0, error_fraction: 0, triangles, distance: 0, screen_coverage: 1 };
       for (const [k, v] of Object.entries(want0)) if (l0[k] !== v) P(k === 'triangles' || k === 'node' || k === 'mesh' ? 'chain' : 'switching', `${tag}: extras.lodpipe.levels[0].${k} = ${l0[k]}, expected ${v}`);
