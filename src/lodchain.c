@@ -518,6 +518,56 @@ static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64
     return id;
 }
 
+/* The animation channels that move document node `node` (translation,
+ * rotation, scale) or drive its morph weights, copied once for each of its
+ * LOD nodes, which a client shows in its place: otherwise an animated node's
+ * coarse levels would stand still. Same sampler, appended after the channels
+ * the animation had. */
+static int follow_animations(scene *s, int64_t node, const int64_t *lod_nodes, uint32_t lod_count, lp_error *err)
+{
+    for (size_t a = 0; a < gltf_count(s->doc, GLTF_ANIMATIONS); ++a) {
+        size_t channels = 0;
+        char pointer[128];
+        for (;; ++channels) {
+            snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu", a, channels);
+            char *probe = gltf_get_json(s->doc, pointer);
+            if (!probe) break;
+            free(probe);
+        }
+        size_t appended = 0;
+        for (size_t c = 0; c < channels; ++c) {
+            snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/node", a, c);
+            char *target = gltf_get_json(s->doc, pointer);
+            const int moves_node = target && strtoll(target, NULL, 10) == node;
+            free(target);
+            if (!moves_node) continue;
+            snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/path", a, c);
+            char *path = gltf_get_json(s->doc, pointer);
+            const int followed = path && (strcmp(path, "\"translation\"") == 0 || strcmp(path, "\"rotation\"") == 0 ||
+                                          strcmp(path, "\"scale\"") == 0 || strcmp(path, "\"weights\"") == 0);
+            free(path);
+            if (!followed) continue;
+            snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu", a, c);
+            char *channel = gltf_get_json(s->doc, pointer);
+            if (!channel) return lp_fail(err, LP_INVALID, "out of memory");
+            for (uint32_t k = 0; k < lod_count; ++k) {
+                char to[128], value[32];
+                snprintf(to, sizeof to, "/animations/%zu/channels/-", a);
+                snprintf(value, sizeof value, "%lld", (long long)lod_nodes[k]);
+                const size_t at = channels + appended++;
+                char node_pointer[128];
+                snprintf(node_pointer, sizeof node_pointer, "/animations/%zu/channels/%zu/target/node", a, at);
+                if (gltf_set_json(s->doc, to, channel) != 0 || gltf_set_json(s->doc, node_pointer, value) != 0) {
+                    free(channel);
+                    return lp_fail(err, LP_INVALID, "cannot add an animation channel for a LOD node");
+                }
+            }
+            free(channel);
+        }
+    }
+    return LP_OK;
+}
+
 /* EXT_mesh_gpu_instancing on document node `node`: the largest absolute
  * component of its instances' SCALE (1 without instancing or SCALE): an
  * instance's size on screen is the node's times its own. */
@@ -789,6 +839,7 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
             lod_nodes[k] = write_lod_node(s, n, carrier, out->levels[k].mesh, k + 1, err);
             if (lod_nodes[k] < 0) rc = err->code ? err->code : LP_INVALID;
         }
+        if (!rc) rc = follow_animations(s, carrier, lod_nodes, out->level_count, err);
         if (!rc) rc = annotate_node(s, carrier, n, m, out, lod_nodes, o, r->diagonal, out, err);
         out->nodes++;
     }

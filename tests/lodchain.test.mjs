@@ -415,24 +415,40 @@ for (const rel of ['scans/bunny.glb', 'animated/CesiumMan.glb', 'compressed/Dens
 // EXT_mesh_gpu_instancing (no corpus asset has it): cow.glb made into five instances, one of them 4x
 // larger. Every LOD node must be instanced like the node (else a client shows one instance at the coarse
 // levels), and the switching distances follow the largest instance (4x the plain cow's).
-test('EXT_mesh_gpu_instancing: LOD nodes instanced like their node, distances for the largest instance', { skip: skipRuns }, async (t) => {
-  const dir = tempDir(t);
-  const plainIn = corpusPath('scans/cow.glb');
-  const raw = readRaw(plainIn);
+/**
+ * cow.glb as a .gltf in `dir` with extra float data: edit(j, node, addAccessor) changes the JSON, where
+ * addAccessor(values, type, count) appends a float accessor over new data (a data: URI buffer of its own).
+ */
+function cowVariant(dir, name, edit) {
+  const raw = readRaw(corpusPath('scans/cow.glb'));
   const j = structuredClone(raw.json);
   const b64 = (bytes) => `data:application/octet-stream;base64,${Buffer.from(bytes).toString('base64')}`;
   j.buffers[0].uri = b64(raw.buffers[0]);
-  const instances = new Float32Array([0, 0, 0, 20, 0, 0, 40, 0, 0, 60, 0, 0, 80, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 4, 4, 4]);
-  const b = j.buffers.push({ byteLength: instances.byteLength, uri: b64(new Uint8Array(instances.buffer)) }) - 1;
-  const v = j.bufferViews.push({ buffer: b, byteLength: instances.byteLength }) - 1;
-  const tr = j.accessors.push({ bufferView: v, componentType: 5126, count: 5, type: 'VEC3', min: [0, 0, 0], max: [80, 0, 0] }) - 1;
-  const sc = j.accessors.push({ bufferView: v, byteOffset: 60, componentType: 5126, count: 5, type: 'VEC3', min: [1, 1, 1], max: [4, 4, 4] }) - 1;
+  const addAccessor = (values, type, count) => {
+    const data = new Float32Array(values);
+    const b = j.buffers.push({ byteLength: data.byteLength, uri: b64(new Uint8Array(data.buffer)) }) - 1;
+    const v = j.bufferViews.push({ buffer: b, byteLength: data.byteLength }) - 1;
+    const n = values.length / count;
+    const min = [...Array(n)].map((_, c) => Math.min(...values.filter((_, i) => i % n === c)));
+    const max = [...Array(n)].map((_, c) => Math.max(...values.filter((_, i) => i % n === c)));
+    return j.accessors.push({ bufferView: v, componentType: 5126, count, type, min, max }) - 1;
+  };
   const node = j.scenes[j.scene ?? 0].nodes[0];
   assert.equal(j.nodes[node].mesh, 0, 'test premise: cow.glb\'s root node has the mesh');
-  j.nodes[node].extensions = { ...(j.nodes[node].extensions || {}), EXT_mesh_gpu_instancing: { attributes: { TRANSLATION: tr, SCALE: sc } } };
-  j.extensionsUsed = [...(j.extensionsUsed || []), 'EXT_mesh_gpu_instancing'];
-  const input = path.join(dir, 'cow_instanced.gltf');
-  fs.writeFileSync(input, JSON.stringify(j));
+  edit(j, node, addAccessor);
+  const file = path.join(dir, name);
+  fs.writeFileSync(file, JSON.stringify(j));
+  return file;
+}
+
+test('EXT_mesh_gpu_instancing: LOD nodes instanced like their node, distances for the largest instance', { skip: skipRuns }, async (t) => {
+  const plainIn = corpusPath('scans/cow.glb');
+  const input = cowVariant(tempDir(t), 'cow_instanced.gltf', (j, node, addAccessor) => {
+    const tr = addAccessor([0, 0, 0, 20, 0, 0, 40, 0, 0, 60, 0, 0, 80, 0, 0], 'VEC3', 5);
+    const sc = addAccessor([1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 4, 4, 4], 'VEC3', 5);
+    j.nodes[node].extensions = { ...(j.nodes[node].extensions || {}), EXT_mesh_gpu_instancing: { attributes: { TRANSLATION: tr, SCALE: sc } } };
+    j.extensionsUsed = [...(j.extensionsUsed || []), 'EXT_mesh_gpu_instancing'];
+  });
   const run = mainJob(input, '.glb', [], {});
   assert.deepEqual(runFatal(run), [], `the main job failed\n${describeRun(run.r)}`);
   const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary, hausdorff: false });
@@ -447,6 +463,30 @@ test('EXT_mesh_gpu_instancing: LOD nodes instanced like their node, distances fo
       assert.equal(l.error, p[i].error, `level ${i + 1}: the same certified level`);
       assert.ok(relClose(l.distance, 4 * p[i].distance, 1e-9), `level ${i + 1}: distance ${l.distance}, plain ${p[i].distance}`);
     });
+  });
+});
+
+// A node whose transform is animated: its LOD nodes take its place, so they must move with it (the chain
+// checker requires a copy of each TRS/weights channel per LOD node, and nothing else added).
+test('animated node: every LOD node follows the node\'s rotation and translation channels', { skip: skipRuns }, async (t) => {
+  const input = cowVariant(tempDir(t), 'cow_animated.gltf', (j, node, addAccessor) => {
+    const times = addAccessor([0, 1, 2], 'SCALAR', 3);
+    const s = Math.SQRT1_2;
+    const turns = addAccessor([0, 0, 0, 1, 0, s, 0, s, 0, 1, 0, 0], 'VEC4', 3);
+    const moves = addAccessor([0, 0, 0, 5, 0, 0, 0, 0, 0], 'VEC3', 3);
+    j.animations = [{ name: 'spin', samplers: [{ input: times, output: turns }, { input: times, output: moves }],
+      channels: [{ sampler: 0, target: { node, path: 'rotation' } }, { sampler: 1, target: { node, path: 'translation' } }] }];
+  });
+  const run = mainJob(input, '.glb', [], {});
+  assert.deepEqual(runFatal(run), [], `the main job failed\n${describeRun(run.r)}`);
+  const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary, hausdorff: false });
+  await assertAspects(t, res, 'animated cow', CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  await t.test('the file: 2 channels + 2 per LOD node', () => {
+    const j = readRaw(run.out).json;
+    const ids = j.nodes.find((n) => n.extensions?.MSFT_lod)?.extensions.MSFT_lod.ids || [];
+    assert.ok(ids.length > 0, 'a chain');
+    assert.equal(j.animations[0].channels.length, 2 + 2 * ids.length);
+    for (const id of ids) assert.deepEqual(j.animations[0].channels.filter((c) => c.target.node === id).map((c) => c.target.path).sort(), ['rotation', 'translation']);
   });
 });
 

@@ -1214,6 +1214,36 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
     });
   }
 
+  // ---- LOD nodes follow their node's animations (README): each channel that moves a chain node (TRS) or
+  // drives its weights is copied once per LOD node (same sampler and path, appended); checked here, then
+  // the copies are set aside so that the animations compare unchanged
+  const lodOwner = new Map();
+  nodes.forEach((n, i) => (n.extensions?.MSFT_lod?.ids || []).forEach((id) => { if (id >= nInNodes) lodOwner.set(id, i); }));
+  const FOLLOWED = ['translation', 'rotation', 'scale', 'weights'];
+  (j.animations || []).forEach((an, ai) => {
+    const channels = an.channels || [];
+    const own = channels.filter((ch) => !lodOwner.has(ch.target?.node));
+    const copies = channels.filter((ch) => lodOwner.has(ch.target?.node));
+    if (channels.slice(own.length).some((ch) => !lodOwner.has(ch.target?.node))) {
+      P('unchanged', `/animations/${ai}: the channels for LOD nodes are not all after the input's channels`);
+    }
+    const same = (x, y) => x.sampler === y.sampler && x.target?.path === y.target?.path;
+    for (const ch of copies) {
+      const owner = lodOwner.get(ch.target.node);
+      if (!own.some((o) => o.target?.node === owner && same(o, ch))) P('unchanged', `/animations/${ai}: a channel for LOD node ${ch.target.node} (sampler ${ch.sampler}, ${ch.target.path}) copies no channel of its node ${owner}`);
+    }
+    const carried = new Set(carriers.values());
+    for (const o of own) {
+      if (!FOLLOWED.includes(o.target?.path)) continue;
+      // a carrier's LOD nodes take the carrier's place under the node: the node's own TRS moves them already
+      if (carried.has(o.target?.node) && o.target.path !== 'weights') continue;
+      for (const id of nodes[o.target?.node]?.extensions?.MSFT_lod?.ids || []) {
+        if (id >= nInNodes && !copies.some((ch) => ch.target.node === id && same(o, ch))) P('chain', `/animations/${ai}: LOD node ${id} does not follow node ${o.target.node}'s ${o.target.path} channel (sampler ${o.sampler})`);
+      }
+    }
+    an.channels = own;
+  });
+
   // ---- unchanged parts
   const a = contractView(jin);
   const b = contractView(j);
