@@ -420,6 +420,31 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
 
 /* ---- nodes --------------------------------------------------------------------- */
 
+/* Channel c of animation a: its target node (-1: none) and path (at most 15
+ * characters, "" when absent). Returns 0, or -1 when there is no channel c. */
+static int channel_target(const scene *s, size_t a, size_t c, int64_t *node, char path[16])
+{
+    char pointer[128];
+    snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu", a, c);
+    char *text = gltf_get_json(s->doc, pointer);
+    if (!text) return -1;
+    free(text);
+    snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/node", a, c);
+    text = gltf_get_json(s->doc, pointer);
+    *node = text ? strtoll(text, NULL, 10) : -1;
+    free(text);
+    snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/path", a, c);
+    text = gltf_get_json(s->doc, pointer);
+    const size_t len = text ? strlen(text) : 0; /* a JSON string: "..." */
+    path[0] = 0;
+    if (len >= 2 && len - 2 < 16 && text[0] == '"') {
+        memcpy(path, text + 1, len - 2);
+        path[len - 2] = 0;
+    }
+    free(text);
+    return 0;
+}
+
 /* A node that has a mesh AND children cannot simply carry MSFT_lod: clients
  * replace the node with its LOD node, children and all, so the children would
  * vanish at coarse levels. Such a node keeps its transform and children and
@@ -464,23 +489,15 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
     snprintf(value, sizeof value, "%lld", (long long)carrier);
     if (gltf_set_json(s->doc, to, value) != 0) return lp_fail(err, LP_INVALID, "cannot add a child to nodes[%u]", n), -1;
     /* morph weight animations follow the mesh */
+    int64_t node;
+    char path[16];
     for (size_t a = 0; a < gltf_count(s->doc, GLTF_ANIMATIONS); ++a)
-        for (size_t c = 0;; ++c) {
-            char pointer[128];
-            snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target", a, c);
-            char *target = gltf_get_json(s->doc, pointer);
-            if (!target) break;
-            char expected[64];
-            snprintf(expected, sizeof expected, "\"node\":%u,", n);
-            int match = strstr(target, expected) && strstr(target, "\"path\":\"weights\"");
-            snprintf(expected, sizeof expected, "\"node\":%u}", n);
-            match = match || (strstr(target, expected) && strstr(target, "\"path\":\"weights\""));
-            free(target);
-            if (match) {
+        for (size_t c = 0; channel_target(s, a, c, &node, path) == 0; ++c)
+            if (node == (int64_t)n && strcmp(path, "weights") == 0) {
+                char pointer[128];
                 snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/node", a, c);
                 gltf_set_json(s->doc, pointer, value);
             }
-        }
     return carrier;
 }
 
@@ -526,27 +543,16 @@ static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64
 static int follow_animations(scene *s, int64_t node, const int64_t *lod_nodes, uint32_t lod_count, lp_error *err)
 {
     for (size_t a = 0; a < gltf_count(s->doc, GLTF_ANIMATIONS); ++a) {
+        int64_t target;
+        char path[16], pointer[128];
         size_t channels = 0;
-        char pointer[128];
-        for (;; ++channels) {
-            snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu", a, channels);
-            char *probe = gltf_get_json(s->doc, pointer);
-            if (!probe) break;
-            free(probe);
-        }
+        while (channel_target(s, a, channels, &target, path) == 0) channels++;
         size_t appended = 0;
         for (size_t c = 0; c < channels; ++c) {
-            snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/node", a, c);
-            char *target = gltf_get_json(s->doc, pointer);
-            const int moves_node = target && strtoll(target, NULL, 10) == node;
-            free(target);
-            if (!moves_node) continue;
-            snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/path", a, c);
-            char *path = gltf_get_json(s->doc, pointer);
-            const int followed = path && (strcmp(path, "\"translation\"") == 0 || strcmp(path, "\"rotation\"") == 0 ||
-                                          strcmp(path, "\"scale\"") == 0 || strcmp(path, "\"weights\"") == 0);
-            free(path);
-            if (!followed) continue;
+            channel_target(s, a, c, &target, path);
+            const int followed = strcmp(path, "translation") == 0 || strcmp(path, "rotation") == 0 ||
+                                 strcmp(path, "scale") == 0 || strcmp(path, "weights") == 0;
+            if (target != node || !followed) continue;
             snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu", a, c);
             char *channel = gltf_get_json(s->doc, pointer);
             if (!channel) return lp_fail(err, LP_INVALID, "out of memory");

@@ -151,12 +151,17 @@ size_t root_count(const ojson &root, const char *array)
     return it != root.end() && it->is_array() ? it->size() : 0;
 }
 
-void check_reference(const ojson &root, const ojson &v, const char *refers, const std::string &path)
+// Index v (a non-negative integer) must be below count; `what` names the counted things.
+void check_index(const ojson &v, size_t count, const std::string &what, const std::string &path)
 {
-    const size_t count = root_count(root, refers);
     if (v.get<uint64_t>() >= count)
         fail(GLTF_INVALID, path + " = " + std::to_string(v.get<uint64_t>()) + " does not exist (" + std::to_string(count) +
-                               " " + refers + ")");
+                               " " + what + ")");
+}
+
+void check_reference(const ojson &root, const ojson &v, const char *refers, const std::string &path)
+{
+    check_index(v, root_count(root, refers), refers, path);
 }
 
 void check_value(const ojson &root, const ojson &v, const Prop &p, const std::string &path)
@@ -256,10 +261,7 @@ void check_local_references(const ojson &root)
         for (size_t c = 0; c < channels.size(); ++c) {
             const std::string path = at("animations", a) + ".channels[" + std::to_string(c) + "]";
             if (!channels[c].contains("sampler")) fail(GLTF_INVALID, path + ".sampler is missing");
-            const uint64_t sampler = channels[c]["sampler"].get<uint64_t>();
-            if (sampler >= samplers)
-                fail(GLTF_INVALID, path + ".sampler = " + std::to_string(sampler) + " does not exist (" +
-                                       std::to_string(samplers) + " samplers in the animation)");
+            check_index(channels[c]["sampler"], samplers, "samplers in the animation", path + ".sampler");
             auto target = channels[c].find("target");
             if (target == channels[c].end() || !has_ext(*target, "KHR_animation_pointer")) continue;
             const ojson &pointer = (*target)["extensions"]["KHR_animation_pointer"].value("pointer", ojson());
@@ -303,9 +305,7 @@ void check_local_references(const ojson &root)
                 const ojson &list = mappings[k].value("variants", ojson::array());
                 if (!kind_ok(list, ARR_UINT)) fail(GLTF_INVALID, mp + ".variants must be an array of non-negative integers");
                 for (size_t i = 0; i < list.size(); ++i)
-                    if (list[i].get<uint64_t>() >= variants)
-                        fail(GLTF_INVALID, mp + ".variants[" + std::to_string(i) + "] = " + std::to_string(list[i].get<uint64_t>()) +
-                                               " does not exist (" + std::to_string(variants) + " variants)");
+                    check_index(list[i], variants, "variants", mp + ".variants[" + std::to_string(i) + "]");
             }
         }
     }
