@@ -39,7 +39,7 @@ import {
   corpusPath, describeRun, lodpipeBin, manifestInputs, readRaw, repoRoot, runLodpipe, skipWithoutBinary, validateFileCached,
 } from './lib/gltf.mjs';
 import {
-  CHAIN_ASPECTS, HAUSDORFF, SLACK_REL, analyzeChain, dequant, formatProblems, hausdorffAvailable, hausdorffWithin, newValidatorErrorMessages, primTriangles, rawPrimGeometry,
+  CHAIN_ASPECTS, CHAIN_EXPECTED_MIN_TRIANGLES, HAUSDORFF, SLACK_REL, analyzeChain, dequant, formatProblems, hausdorffAvailable, hausdorffWithin, newValidatorErrorMessages, primTriangles, rawPrimGeometry,
 } from './lib/lodcheck.mjs';
 
 const FAST_BIN = process.env.LODPIPE_BIN_FAST || '';
@@ -50,9 +50,6 @@ const DEFAULT_SCENE = path.join(repoRoot, 'assets', 'default_scene.glb');
 const DRACO = 'KHR_draco_mesh_compression';
 const CONFIGURED_POSITION_BITS = 14;
 const LOD0_CGAL_MAX_TRIANGLES = 20000;
-// every valid corpus asset of this many triangles gets a level (2026-12-03: the smallest that does is
-// CesiumMilkTruck, 2,856; ShapeCollection's 2,390 in simple shapes get none)
-const CHAIN_EXPECTED_MIN_TRIANGLES = 2500;
 
 const skip = skipWithoutBinary();
 const hausdorffSkip = hausdorffAvailable() ? false : `${HAUSDORFF} not built (run make hausdorff)`;

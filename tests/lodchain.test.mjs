@@ -46,7 +46,7 @@ import {
 import {
   CHAIN_ASPECTS, DEFAULT_CAMERA, DEFAULT_LADDER, HAUSDORFF, analyzeChain, compareReorderedPrimitive, dropRuleProblems, edgeCensus, expectedSwitching,
   fileSetBytes, fmt, formatProblems, hausdorffAvailable, isTrianglePrim, matchLadder, maxColumnScale, newValidatorErrorMessages,
-  deathOrderProblems, prefixProblems, primTriangles, rawPrimGeometry, relClose, worldMatrices,
+  CHAIN_EXPECTED_MIN_TRIANGLES, deathOrderProblems, prefixProblems, primTriangles, rawPrimGeometry, relClose, worldMatrices,
 } from './lib/lodcheck.mjs';
 import { FIXTURE_DIAGONAL, TENT_H, buildFixture, setRecordedTriangles, writeFixture } from './lib/lodfixture.mjs';
 
@@ -300,9 +300,6 @@ test('self-test: unit checks (prefix nesting, drop rule, ladder matching, world 
 // Must show 1: every valid asset
 
 const GLTF_TOO = ['default_scene.glb', 'CesiumMilkTruck', 'pirate'];
-// every valid corpus asset of this many triangles gets a level (2026-12-03: the smallest that does is
-// CesiumMilkTruck, 2,856; ShapeCollection's 2,390 in simple shapes get none)
-const CHAIN_EXPECTED_MIN_TRIANGLES = 2500;
 const assets = [
   ...manifestInputs((f) => f.category !== 'invalid').map((f) => ({ rel: f.path, file: corpusPath(f.path), triangles: f.stats?.triangle_count ?? 0 })),
   { rel: 'assets/default_scene.glb (repo)', file: DEFAULT_SCENE, triangles: 63840 },

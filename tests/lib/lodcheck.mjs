@@ -36,6 +36,10 @@ export const BUILD = process.env.LODPIPE_BUILD || path.join(repoRoot, 'build');
 export const HAUSDORFF = path.join(BUILD, 'hausdorff', 'hausdorff');
 const HAUSDORFF_TIMEOUT_MS = Number(process.env.LODPIPE_HAUSDORFF_TIMEOUT_MS || 600000);
 
+// Every valid corpus asset of this many triangles gets a level (2026-12-03: the smallest that does is
+// CesiumMilkTruck, 2,856; ShapeCollection's 2,390 in simple shapes get none).
+export const CHAIN_EXPECTED_MIN_TRIANGLES = 2500;
+
 export const CHAIN_ASPECTS = [
   ['validator', 'no Khronos validator error the input did not have'],
   ['summary', '--json summary: every mesh of the default scene once, levels consistent with the file'],

@@ -1148,6 +1148,15 @@ static void test_thin_plate(void)
     mesh_free(&m);
 }
 
+/* The run simplified, not by refusing everything: its coarsest level keeps
+ * at most a quarter of the input's triangles. */
+static void check_simplified(const char *name, const run *rn, uint32_t input_triangles)
+{
+    const uint32_t last = rn->r.levels[rn->r.level_count - 1].triangle_count;
+    CHECK(last <= input_triangles / 4, "%s: the coarsest level kept %u of %u triangles", name, last, input_triangles);
+    printf("#   %s: %u -> %u triangles\n", name, input_triangles, last);
+}
+
 /* DESIGN.md §5: "new faces are tested against nearby faces of A where the
  * original is thin (another sheet within 2 * eps_max)". A closed box whose
  * thickness is far below 2 * eps_max is thin everywhere: no level may have
@@ -1167,11 +1176,9 @@ static void test_thin_plate_no_self_intersection(void)
         run rn;
         if (run_simplify(&rn, &m, fractions, 4, 1, 0) == LP_OK) {
             check_topology("box", &rn, 2, 0);
-            /* not by refusing everything: the six flat sides simplify (a side of n x n cells is 2 n^2 triangles) */
-            const uint32_t last = rn.r.levels[rn.r.level_count - 1].triangle_count;
-            CHECK(last <= m.nt / 4, "box %u x %u cells: the coarsest level kept %u of %u triangles", cases[c].n,
-                  cases[c].n, last, m.nt);
-            printf("#   thin box %u x %u cells, t %g: %u -> %u triangles\n", cases[c].n, cases[c].n, cases[c].t, m.nt, last);
+            char label[64];
+            snprintf(label, sizeof label, "thin box %u x %u cells, t %g", cases[c].n, cases[c].n, cases[c].t);
+            check_simplified(label, &rn, m.nt); /* the six flat sides simplify */
             for (uint32_t k = 0; k < rn.r.level_count; ++k) {
                 uint32_t ex[2], n = self_intersections(&rn, k, ex);
                 CHECK(n == 0,
@@ -1197,10 +1204,9 @@ static void check_regions_never_cross(const char *name, const mesh *m, const dou
         run rn;
         if (run_simplify(&rn, m, fractions, count, 2, 0) == LP_OK) {
             check_topology(name, &rn, euler, loops);
-            const uint32_t last = rn.r.levels[rn.r.level_count - 1].triangle_count;
-            CHECK(last <= m->nt / 4, "%s, regions of %u: the coarsest level kept %u of %u triangles", name, sizes[c], last,
-                  m->nt);
-            printf("#   %s, regions of %u: %u -> %u triangles\n", name, sizes[c], m->nt, last);
+            char label[96];
+            snprintf(label, sizeof label, "%s, regions of %u", name, sizes[c]);
+            check_simplified(label, &rn, m->nt);
             for (uint32_t k = 0; k < rn.r.level_count; ++k) {
                 uint32_t ex[2], bad = self_intersections(&rn, k, ex);
                 CHECK(bad == 0, "%s, regions of %u: level %u (%u triangles) has %u intersecting face pairs, e.g. %u and %u",
