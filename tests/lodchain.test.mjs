@@ -463,6 +463,31 @@ test('EXT_mesh_gpu_instancing: LOD nodes instanced like their node, distances fo
   });
 });
 
+// A mesh of the default scene that a node of another scene uses too (no corpus asset has one): the chain
+// goes on every node that uses the mesh (README "Output format"), so a client that switches scenes sees
+// it there as well, with switching distances for that node's own world scale.
+test('a default-scene mesh used in another scene: that node gets the chain too, at its own scale', { skip: skipRuns }, async (t) => {
+  const input = cowVariant(tempDir(t), 'cow_two_scenes.gltf', (j, node) => {
+    const other = j.nodes.push({ name: 'cow in scene 1', mesh: 0, scale: [2, 2, 2] }) - 1;
+    j.scenes.push({ name: 'second', nodes: [other] });
+  });
+  const run = mainJob(input, '.glb', [], {});
+  assert.deepEqual(runFatal(run), [], `the main job failed\n${describeRun(run.r)}`);
+  const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary, hausdorff: false });
+  await assertAspects(t, res, 'cow in two scenes', CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  await t.test('both nodes carry the same LOD meshes; the scene-1 node\'s distances are 2x the other\'s', () => {
+    const j = readRaw(run.out).json;
+    const carriers = j.nodes.filter((n) => n.extensions?.MSFT_lod);
+    assert.equal(carriers.length, 2, `nodes with MSFT_lod: ${carriers.map((n) => n.name)}`);
+    const [a, b] = carriers;
+    assert.deepEqual(a.extensions.MSFT_lod.ids.map((id) => j.nodes[id].mesh), b.extensions.MSFT_lod.ids.map((id) => j.nodes[id].mesh));
+    const la = a.extras.lodpipe.levels, lb = b.extras.lodpipe.levels;
+    assert.ok(la.length > 1 && la.length === lb.length, `levels ${la.length} and ${lb.length}`);
+    for (let k = 1; k < la.length; k++) assert.ok(relClose(lb[k].distance, 2 * la[k].distance, 1e-9), `level ${k}: ${lb[k].distance} vs ${la[k].distance}`);
+    assert.equal(run.summary.meshes[0].nodes, 2, 'the summary counts both nodes');
+  });
+});
+
 // A node whose transform is animated: its LOD nodes take its place, so they must move with it (the chain
 // checker requires a copy of each TRS/weights channel per LOD node, and nothing else added).
 test('animated node: every LOD node follows the node\'s rotation and translation channels', { skip: skipRuns }, async (t) => {

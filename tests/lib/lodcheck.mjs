@@ -170,6 +170,20 @@ export function sceneTriangleMeshes(json) {
   return inst;
 }
 
+/**
+ * The nodes that get a mesh's chain: for every mesh of sceneTriangleMeshes, every node that uses it,
+ * in node order, whichever scene it is in (README "Output format": the chain goes on every node that
+ * uses the mesh, so a scene the client switches to shows it too); { mesh: [nodes] }.
+ */
+export function chainedNodes(json) {
+  const out = new Map();
+  for (const m of sceneTriangleMeshes(json).keys()) out.set(m, []);
+  (json.nodes || []).forEach((n, i) => {
+    if (out.has(n.mesh)) out.get(n.mesh).push(i);
+  });
+  return out;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Geometry access (component values, no normalization applied) and triangles
 
@@ -790,7 +804,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
   }
 
   // ---- what the input asks for
-  const instances = sceneTriangleMeshes(jin); // mesh -> scene nodes (input numbering = output numbering)
+  const instances = chainedNodes(jin); // mesh -> the nodes that get its chain (input numbering = output numbering)
   const meshInfo = new Map(); // mesh -> { triangles, diagonal } from the OUTPUT's original mesh
   const info = (m) => {
     if (!meshInfo.has(m)) meshInfo.set(m, meshTrianglesAndDiagonal(raw, m));
@@ -841,7 +855,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
       if (sumMeshes.has(e.mesh)) P('summary', `mesh ${e.mesh} is listed ${1 + [...summary.meshes].filter((x) => x.mesh === e.mesh).length - 1} times in the --json summary (each distinct mesh once)`);
       else sumMeshes.set(e.mesh, e);
     }
-    for (const m of instances.keys()) if (!sumMeshes.has(m)) P('summary', `mesh ${m} (used by scene nodes ${instances.get(m)}) is missing from the --json summary`);
+    for (const m of instances.keys()) if (!sumMeshes.has(m)) P('summary', `mesh ${m} (used by nodes ${instances.get(m)}) is missing from the --json summary`);
     for (const m of sumMeshes.keys()) if (!instances.has(m)) P('summary', `the --json summary lists mesh ${m}, which no default-scene node uses with triangles`);
   }
   const ladderFr = ladder.map((x) => x / 100);
@@ -856,7 +870,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
     const levels = Array.isArray(e.levels) ? e.levels : [];
     const chain = chains.get(m);
     const expectNodes = levels.length ? instances.get(m).length : 0;
-    if (e.nodes !== expectNodes) P('summary', `${tag}: --json "nodes" is ${e.nodes}, expected ${expectNodes} (default-scene instances that get the chain)`);
+    if (e.nodes !== expectNodes) P('summary', `${tag}: --json "nodes" is ${e.nodes}, expected ${expectNodes} (the nodes that use the mesh, in any scene)`);
     // The ladder level each kept level came from, identified by its eps (the "level" field is the kept
     // level's number 1, 2, ... or its ladder position; both are accepted).
     let prevPos = 0;
@@ -906,7 +920,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
     for (const n of inst) {
       const ids = chain?.ids.get(n);
       if (!ids) {
-        P('chain', `${tag}: scene node ${n} uses it but has no MSFT_lod`);
+        P('chain', `${tag}: node ${n} uses it but has no MSFT_lod`);
         continue;
       }
       if (ids.length !== L) P('chain', `${tag}: node ${n} MSFT_lod.ids has ${ids.length} entries, ${L} levels were kept`);
@@ -945,7 +959,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
     if ((j.meshes || []).length !== nInMeshes + expectedNewMeshes) P('chain', `output has ${(j.meshes || []).length} meshes, expected ${nInMeshes} + ${expectedNewMeshes} LOD meshes (one per kept level of each distinct mesh)`);
   }
   for (const [m, chain] of chains) {
-    for (const n of chain.nodes) if (!instances.get(m)?.includes(n)) notes.push(`node ${n} (mesh ${m}) carries MSFT_lod but is not in the default scene`);
+    for (const n of chain.nodes) if (!instances.get(m)?.includes(n)) notes.push(`node ${n} (mesh ${m}) carries MSFT_lod but is not a node of a default-scene mesh`);
   }
   const anyChain = chains.size > 0;
   const used = j.extensionsUsed || [];
