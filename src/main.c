@@ -618,6 +618,16 @@ static int draco_encode_all(scene *s, const draco_job *jobs, uint32_t count, con
     return rc;
 }
 
+/* 1 when some node that uses mesh m has no MSFT_lod yet: lodchain_write
+ * leaves a node that has one as it is, so for a mesh whose every node has one
+ * (a file lodpipe already wrote) new levels would only be unused meshes. */
+static int mesh_has_unchained_node(const scene *s, uint32_t m)
+{
+    for (uint32_t n = 0; n < s->node_count; ++n)
+        if (s->nodes[n].mesh == (int64_t)m && !s->nodes[n].lod_count) return 1;
+    return 0;
+}
+
 /* The main job: every mesh of the default scene through the certified ladder
  * into an MSFT_lod chain, the document written to OUT all at once. */
 static int cmd_lod(const cli *c)
@@ -652,6 +662,12 @@ static int cmd_lod(const cli *c)
     for (uint32_t m = 0; m < s.mesh_count && !rc; ++m) {
         const scene_mesh *mesh = &s.meshes[m];
         if (!mesh->instance_count || !mesh->triangle_count) continue;
+        if (!mesh_has_unchained_node(&s, m)) {
+            if (!c->quiet)
+                fprintf(stderr, "lodpipe: %s: warning: meshes[%u]: every node that uses it already has MSFT_lod; "
+                                "left as it is\n", in, m);
+            continue;
+        }
         weld_result w;
         simplify_result r;
         lodchain_summary sum;

@@ -488,6 +488,48 @@ test('a default-scene mesh used in another scene: that node gets the chain too, 
   });
 });
 
+// lodpipe's own output through the main job again (a build step run twice, or over an already converted
+// folder): every chained node is left as it is, so a mesh whose nodes all have MSFT_lod must not gain
+// levels that nothing references. A node added since (no MSFT_lod) still gets the chain.
+test('the main job on its own output: nothing added; a new node of the mesh gets the chain', { skip: skipRuns }, async (t) => {
+  const first = mainJob(corpusPath('scans/cow.glb'), '.glb', [], {});
+  assert.deepEqual(runFatal(first), [], `the first run failed\n${describeRun(first.r)}`);
+  const again = mainJob(first.out, '.glb', [], { tag: 'again' });
+  assert.deepEqual(runFatal(again), [], `the second run failed\n${describeRun(again.r)}`);
+  const res = await analyzeChain({ inFile: first.out, outFile: again.out, summary: again.summary, hausdorff: false });
+  await assertAspects(t, res, 'cow, second run', CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  await t.test('second run: the same nodes and meshes, no mesh in the summary, one warning per mesh', () => {
+    const a = readRaw(first.out).json, b = readRaw(again.out).json;
+    assert.equal(b.meshes.length, a.meshes.length, 'meshes');
+    assert.equal(b.nodes.length, a.nodes.length, 'nodes');
+    assert.deepEqual(again.summary.meshes, []);
+    assert.match(again.r.stderr, /meshes\[0\]: every node that uses it already has MSFT_lod; left as it is/);
+  });
+  const partial = path.join(tempDir(t), 'cow_chained_plus_one.gltf');
+  {
+    const raw = readRaw(first.out);
+    const j = structuredClone(raw.json);
+    j.buffers[0].uri = `data:application/octet-stream;base64,${Buffer.from(raw.buffers[0]).toString('base64')}`;
+    const root = j.scenes[j.scene ?? 0].nodes[0];
+    const added = j.nodes.push({ name: 'second cow', mesh: j.nodes[root].mesh, translation: [10, 0, 0] }) - 1;
+    j.scenes[j.scene ?? 0].nodes.push(added);
+    fs.writeFileSync(partial, JSON.stringify(j));
+  }
+  const third = mainJob(partial, '.glb', [], {});
+  assert.deepEqual(runFatal(third), [], `the run with a new node failed\n${describeRun(third.r)}`);
+  const res3 = await analyzeChain({ inFile: partial, outFile: third.out, summary: third.summary, hausdorff: false });
+  await assertAspects(t, res3, 'cow chained plus a new node', CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  await t.test('the new node got a chain; the chained one kept its own', () => {
+    const j = readRaw(third.out).json;
+    const n = j.nodes.length;
+    assert.equal(third.summary.meshes.length, 1);
+    assert.equal(third.summary.meshes[0].nodes, 1, 'one node chained');
+    const added = j.nodes.findIndex((x) => x.name === 'second cow');
+    assert.ok(j.nodes[added].extensions?.MSFT_lod?.ids.every((id) => id >= n - third.summary.meshes[0].levels.length), 'the new node points at new LOD nodes');
+    assert.match(third.r.stderr, /nodes\[\d+\] already has MSFT_lod; left as it is/);
+  });
+});
+
 // A node whose transform is animated: its LOD nodes take its place, so they must move with it (the chain
 // checker requires a copy of each TRS/weights channel per LOD node, and nothing else added).
 test('animated node: every LOD node follows the node\'s rotation and translation channels', { skip: skipRuns }, async (t) => {

@@ -173,14 +173,16 @@ export function sceneTriangleMeshes(json) {
 /**
  * The nodes that get a mesh's chain: for every mesh of sceneTriangleMeshes, every node that uses it,
  * in node order, whichever scene it is in (README "Output format": the chain goes on every node that
- * uses the mesh, so a scene the client switches to shows it too); { mesh: [nodes] }.
+ * uses the mesh, so a scene the client switches to shows it too), except a node that already has
+ * MSFT_lod (left as it is); a mesh left with no such node is not processed at all; { mesh: [nodes] }.
  */
 export function chainedNodes(json) {
   const out = new Map();
   for (const m of sceneTriangleMeshes(json).keys()) out.set(m, []);
   (json.nodes || []).forEach((n, i) => {
-    if (out.has(n.mesh)) out.get(n.mesh).push(i);
+    if (out.has(n.mesh) && !n.extensions?.MSFT_lod) out.get(n.mesh).push(i);
   });
+  for (const [m, list] of out) if (!list.length) out.delete(m);
   return out;
 }
 
@@ -833,7 +835,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
   const chains = new Map(); // mesh -> { nodes: [n], ids: {n: [...]}, lodMeshes: [...] }
   nodes.forEach((n, i) => {
     const ext = n.extensions?.MSFT_lod;
-    if (!ext) return;
+    if (!ext || jin.nodes?.[i]?.extensions?.MSFT_lod) return; // one the input had: 'unchanged' compares it
     if (i >= nInNodes) {
       P('chain', `node ${i} is a new node and carries MSFT_lod itself`);
       return;
@@ -1276,7 +1278,8 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
   const usedOut = (b.extensionsUsed || []).filter((x) => x !== 'MSFT_lod' || (a.extensionsUsed || []).includes('MSFT_lod'));
   if (!deepEqual([...usedOut].sort(), [...(a.extensionsUsed || [])].sort())) P('unchanged', `extensionsUsed input ${JSON.stringify(a.extensionsUsed)}, output ${JSON.stringify(b.extensionsUsed)} (only MSFT_lod may be added)`);
   for (let i = 0; i < nInNodes; i++) {
-    const d = diffJson(a.nodes[i], stripChainProps(b.nodes?.[i]), `/nodes/${i}`, []);
+    const had = jin.nodes[i]?.extensions?.MSFT_lod; // a chain the input had is left as it is
+    const d = diffJson(a.nodes[i], had ? b.nodes?.[i] : stripChainProps(b.nodes?.[i]), `/nodes/${i}`, []);
     problems.unchanged.push(...d.map((x) => `${x} (besides MSFT_lod and extras.MSFT_screencoverage/lodpipe)`));
   }
   for (let i = 0; i < nInMeshes; i++) problems.unchanged.push(...diffJson(a.meshes[i], b.meshes?.[i], `/meshes/${i}`, []));
