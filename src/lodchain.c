@@ -181,14 +181,19 @@ static int64_t append_indices(gltf_doc *doc, const uint32_t *idx, size_t n)
 
 /* ---- LOD0: the original mesh, vertices in death order -------------------------- */
 
+/* 1 when the input referenced each accessor of the primitive once (here).
+ * The input's counts are the current ones for these accessors: what earlier
+ * chains appended refers to their own meshes' accessors, or to ones shared
+ * with them, which the input already referenced twice; and asking the input
+ * costs nothing, where counting in the document walks all of it. */
 static int exclusive(const gltf_doc *doc, const gltf_primitive *g)
 {
-    if (g->indices >= 0 && gltf_accessor_refs(doc, (size_t)g->indices) != 1) return 0;
+    if (g->indices >= 0 && gltf_accessor_refs_at_load(doc, (size_t)g->indices) != 1) return 0;
     for (size_t a = 0; a < g->attribute_count; ++a)
-        if (gltf_accessor_refs(doc, (size_t)g->attributes[a].accessor) != 1) return 0;
+        if (gltf_accessor_refs_at_load(doc, (size_t)g->attributes[a].accessor) != 1) return 0;
     for (size_t t = 0; t < g->target_count; ++t)
         for (size_t a = 0; a < g->target_attribute_counts[t]; ++a)
-            if (gltf_accessor_refs(doc, (size_t)g->target_attributes[t][a].accessor) != 1) return 0;
+            if (gltf_accessor_refs_at_load(doc, (size_t)g->target_attributes[t][a].accessor) != 1) return 0;
     return 1;
 }
 

@@ -463,7 +463,7 @@ static void warn_degenerate(scene *s, uint32_t m)
         const scene_stream *position = NULL;
         for (uint32_t a = 0; a < p->stream_count; ++a)
             if (p->streams[a].values == p->positions) position = &p->streams[a];
-        if (position && gltf_accessor_refs(s->doc, (size_t)position->accessor) > 1) unused = 0;
+        if (position && gltf_accessor_refs_at_load(s->doc, (size_t)position->accessor) > 1) unused = 0;
         uint32_t duplicates = duplicate_triangles(p);
         if (flat)
             warn(s, "meshes[%u].primitives[%u]: %u of %u triangles have no area (kept in LOD0; levels may drop them)",

@@ -43,6 +43,14 @@
 #define NONE UINT32_MAX
 #define GRIDLOG_RING 4096   /* grid updates in flight (about 100 bytes each) */
 #define BATCH_SIZE 512      /* fixed: the result must not depend on the thread count */
+/* Helper threads are started per batch: the evaluations only once this many
+ * candidates are reserved, the grid's updates only for a batch this large.
+ * Starting a thread costs about as much as evaluating ten small candidates,
+ * and a small mesh's passes hold a handful each: 500 meshes of 96 triangles
+ * took 24 s on two threads (16 s of it in the kernel), 5.5 s on one. Which
+ * thread evaluates changes nothing in the result. */
+#define BATCH_PARALLEL_MIN 8
+#define GRIDLOG_PARALLEL_MIN 64
 #define TARGETS_TRIED 3     /* cheapest legal targets tried per candidate */
 #define MAX_CANDIDATE_FACES 384
 /* A pass evaluates the cheapest quarter of its candidates (at least
@@ -1101,11 +1109,12 @@ static void batch_open(sim *s, batch_run *r, candidate *cands)
     }
 }
 
-/* cands[0 .. count) are reserved; the workers start with the first one. */
+/* cands[0 .. count) are reserved; the workers start once there are
+ * BATCH_PARALLEL_MIN (a smaller batch is evaluated by batch_close alone). */
 static void batch_publish(sim *s, batch_run *r, size_t count)
 {
     atomic_store_explicit(&r->job.published, count, memory_order_release);
-    if (count != 1) return;
+    if (count != BATCH_PARALLEL_MIN) return;
     for (uint32_t t = 1; t < s->thread_count; ++t) {
         r->args[t].job = &r->job;
         r->args[t].thread = t;
@@ -1894,7 +1903,7 @@ static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
     s->batch_stars.faces.size = s->batch_stars.end.size = s->batch_stars.box.size = 0;
     const committer cm = {&s->serial, st, &s->commit_clock, &s->batch_stars, NULL};
     /* the grid's updates go to the core that would otherwise wait */
-    gridlog_start(&s->grid_log, &s->grid, s->thread_count > 1);
+    gridlog_start(&s->grid_log, &s->grid, s->thread_count > 1 && count >= GRIDLOG_PARALLEL_MIN);
     int failed = 0;
     for (size_t i = 0; i < count && !failed; ++i) {
         candidate *c = &batch[i];

@@ -519,6 +519,15 @@ struct gltf_doc {
     std::vector<std::string> ext_used, ext_required;
     std::vector<std::string> external_files; // files the load read besides the input (gltf_external_file)
     bool binary_released = false; // gltf_release_binary was called: no bytes to read or write
+
+    // gltf_accessor_refs' counts for every accessor, computed in one walk of
+    // the document when asked after a change: a walk per call made a scene of
+    // N meshes cost N^2 (2,000 small meshes: minutes). Every C API function
+    // that edits `json` calls json_changed() first.
+    mutable std::vector<size_t> accessor_ref_counts;
+    mutable bool accessor_ref_counts_valid = false;
+    void json_changed() { accessor_ref_counts_valid = false; }
+    std::vector<size_t> accessor_refs_at_load; // the same counts as the load left the document
 };
 
 namespace {
@@ -811,6 +820,7 @@ void resolve_views(gltf_doc *doc)
 
 size_t add_owned_view(gltf_doc *doc, std::vector<uint8_t> bytes, int target)
 {
+    doc->json_changed();
     ojson view = ojson::object();
     view["buffer"] = 0;
     view["byteLength"] = bytes.size();
@@ -1094,6 +1104,10 @@ void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_
     mark_referenced_views(doc);
     build_records(doc);
     list_external_files(doc);
+    doc->json_changed();
+    doc->accessor_refs_at_load.resize(array_of(doc->json, "accessors").size());
+    for (size_t a = 0; a < doc->accessor_refs_at_load.size(); ++a)
+        doc->accessor_refs_at_load[a] = gltf_accessor_refs(doc, a);
 }
 
 void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
@@ -1315,6 +1329,7 @@ extern "C" int64_t gltf_add_view(gltf_doc *doc, const void *bytes, size_t size, 
 extern "C" int64_t gltf_add_view_in(gltf_doc *doc, const void *bytes, size_t size, uint64_t byte_stride, int target,
                                     int slot)
 {
+    doc->json_changed();
     try {
         const uint8_t *b = static_cast<const uint8_t *>(bytes);
         size_t v = add_owned_view(doc, std::vector<uint8_t>(b, b + size), target);
@@ -1337,6 +1352,7 @@ extern "C" void gltf_sync_mesh_records(gltf_doc *doc)
 
 extern "C" int64_t gltf_append_json(gltf_doc *doc, const char *array, const char *json)
 {
+    doc->json_changed();
     try {
         ojson value = ojson::parse(json);
         if (!value.is_object()) return -1;
@@ -1352,6 +1368,7 @@ extern "C" int64_t gltf_append_json(gltf_doc *doc, const char *array, const char
 
 extern "C" int gltf_set_json(gltf_doc *doc, const char *pointer, const char *json)
 {
+    doc->json_changed();
     try {
         doc->json[ojson::json_pointer(pointer)] = ojson::parse(json);
         return 0;
@@ -1362,6 +1379,7 @@ extern "C" int gltf_set_json(gltf_doc *doc, const char *pointer, const char *jso
 
 extern "C" int gltf_remove_json(gltf_doc *doc, const char *pointer)
 {
+    doc->json_changed();
     try {
         ojson::json_pointer ptr(pointer);
         if (ptr.empty() || !doc->json.contains(ptr)) return -1;
@@ -1405,6 +1423,7 @@ extern "C" int gltf_remove_jsonf(gltf_doc *doc, const char *pointer_format, ...)
 
 extern "C" int gltf_copy_json(gltf_doc *doc, const char *from, const char *to)
 {
+    doc->json_changed();
     try {
         ojson::json_pointer src(from);
         if (!doc->json.contains(src)) return -1;
@@ -1427,13 +1446,14 @@ extern "C" char *gltf_get_json(const gltf_doc *doc, const char *pointer)
     }
 }
 
-extern "C" size_t gltf_accessor_refs(const gltf_doc *doc, size_t index)
+// Adds one to counts[i] for every reference to accessor i in the document (the
+// places gltf_accessor_refs lists; counts has one entry per accessor).
+static void count_accessor_refs(const ojson &root, std::vector<size_t> &counts)
 {
-    size_t refs = 0;
     auto count = [&](const ojson &v) {
-        if (is_uint(v) && v.get<uint64_t>() == index) refs++;
+        if (is_uint(v) && v.get<uint64_t>() < counts.size()) counts[size_t(v.get<uint64_t>())]++;
     };
-    for (auto &mesh : array_of(doc->json, "meshes"))
+    for (auto &mesh : array_of(root, "meshes"))
         for (auto &prim : array_of(mesh, "primitives")) {
             if (prim.contains("indices")) count(prim["indices"]);
             if (prim.contains("attributes"))
@@ -1441,9 +1461,9 @@ extern "C" size_t gltf_accessor_refs(const gltf_doc *doc, size_t index)
             for (auto &t : array_of(prim, "targets"))
                 for (auto &a : t) count(a);
         }
-    for (auto &skin : array_of(doc->json, "skins"))
+    for (auto &skin : array_of(root, "skins"))
         if (skin.contains("inverseBindMatrices")) count(skin["inverseBindMatrices"]);
-    for (auto &anim : array_of(doc->json, "animations"))
+    for (auto &anim : array_of(root, "animations"))
         for (auto &sampler : array_of(anim, "samplers")) {
             if (sampler.contains("input")) count(sampler["input"]);
             if (sampler.contains("output")) count(sampler["output"]);
@@ -1466,12 +1486,27 @@ extern "C" size_t gltf_accessor_refs(const gltf_doc *doc, size_t index)
             for (auto &e : o) walk(e, in_ext);
         }
     };
-    walk(doc->json, false);
-    return refs;
+    walk(root, false);
+}
+
+extern "C" size_t gltf_accessor_refs(const gltf_doc *doc, size_t index)
+{
+    if (!doc->accessor_ref_counts_valid) {
+        doc->accessor_ref_counts.assign(array_of(doc->json, "accessors").size(), 0);
+        count_accessor_refs(doc->json, doc->accessor_ref_counts);
+        doc->accessor_ref_counts_valid = true;
+    }
+    return index < doc->accessor_ref_counts.size() ? doc->accessor_ref_counts[index] : 0;
+}
+
+extern "C" size_t gltf_accessor_refs_at_load(const gltf_doc *doc, size_t index)
+{
+    return index < doc->accessor_refs_at_load.size() ? doc->accessor_refs_at_load[index] : 0;
 }
 
 extern "C" void gltf_use_extension(gltf_doc *doc, const char *name, int required)
 {
+    doc->json_changed();
     for (const char *list : {"extensionsUsed", "extensionsRequired"}) {
         if (list[10] == 'R' && !required) continue;
         ojson &arr = doc->json[list];

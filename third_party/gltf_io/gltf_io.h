@@ -191,6 +191,10 @@ char *gltf_get_json(const gltf_doc *doc, const char *pointer);
  * morph targets and indices, skins' inverseBindMatrices, animation sampler
  * input/output, and any "accessor" inside an extension (e.g. instancing). */
 size_t gltf_accessor_refs(const gltf_doc *doc, size_t index);
+/* The same count as the load left the document (0 for an accessor appended
+ * since): no walk of the document per call, for a question about the input
+ * asked once per primitive. */
+size_t gltf_accessor_refs_at_load(const gltf_doc *doc, size_t index);
 
 /* Adds name to extensionsUsed (and to extensionsRequired when required). */
 void gltf_use_extension(gltf_doc *doc, const char *name, int required);
