@@ -209,6 +209,27 @@ static int output_usable(const cli *c, const char *in, const char *out)
     }
     lp_error err = {0, ""};
     if (output_check_folder(out, &err)) return report(out, &err); /* now, not after the work */
+    if (c->depfile) {
+        if (output_same_path(c->depfile, out) || output_same_path(c->depfile, in)) {
+            fprintf(stderr, "lodpipe: %s: --depfile names the %s\n", c->depfile,
+                    output_same_path(c->depfile, out) ? "output" : "input");
+            return LP_USAGE;
+        }
+        if (output_check_folder(c->depfile, &err)) return report(c->depfile, &err);
+    }
+    return LP_OK;
+}
+
+/* The --depfile must not name a file the input reads (checked once they are
+ * known, before the work). */
+static int depfile_usable(const cli *c, const gltf_doc *doc)
+{
+    for (size_t i = 0; c->depfile && i < gltf_external_file_count(doc); ++i)
+        if (output_same_path(c->depfile, gltf_external_file(doc, i))) {
+            fprintf(stderr, "lodpipe: %s: --depfile names %s, a file the input reads\n", c->depfile,
+                    gltf_external_file(doc, i));
+            return LP_USAGE;
+        }
     return LP_OK;
 }
 
@@ -231,24 +252,38 @@ static void json_written_files(jsonw *j, const char *out, const gltf_out_file *f
 }
 
 /* Serializes the document and writes every file all-or-nothing; on success
- * the paths written are appended to `written` (when not NULL). */
-static int write_document(const gltf_doc *doc, const char *out, jsonw *written)
+ * the paths written are appended to `written` (when not NULL). No file the
+ * input `in` reads is replaced (its .bin by a .gltf output's, say), unless
+ * --force names the input itself as OUT (the whole input is replaced then),
+ * nor the --depfile, written afterwards (in = NULL: no such guards). */
+static int write_document(const cli *c, const char *in, const gltf_doc *doc, const char *out, jsonw *written)
 {
     gltf_out_file *files = NULL;
     size_t count = 0;
     char msg[512];
     lp_error err = {0, ""};
+    const size_t inputs = in ? gltf_external_file_count(doc) + 1 : 0;
+    output_guard *guards = calloc(inputs + 2, sizeof *guards);
+    size_t guard_count = 0;
+    if (!guards) return LP_IO;
+    if (in && !(c->force && output_same_file(in, out))) {
+        guards[guard_count++] = (output_guard){in, "the input"};
+        for (size_t i = 0; i + 1 < inputs; ++i)
+            guards[guard_count++] = (output_guard){gltf_external_file(doc, i), "a file the input reads"};
+    }
+    if (in && c->depfile) guards[guard_count++] = (output_guard){c->depfile, "the --depfile"};
     int rc = gltf_serialize(doc, out, &files, &count, msg, sizeof msg);
     if (rc) {
         lp_fail(&err, rc, "%s", msg);
         rc = report(out, &err);
-    } else if ((rc = output_write_all(out, files, count, &err)) != 0) {
+    } else if ((rc = output_write_all(out, files, count, guards, guard_count, &err)) != 0) {
         rc = report(out, &err);
     } else if (written) {
         json_written_files(written, out, files, count);
     }
     gltf_free_files(files, count);
     free(files);
+    free(guards);
     return rc;
 }
 
@@ -285,7 +320,7 @@ static int cmd_convert(const cli *c)
     int rc = load(c, in, &s);
     if (rc) return rc;
     if (c->config.draco.enabled) rc = draco_lod0_only(c, in, &s);
-    if (!rc) rc = write_document(s.doc, out, NULL);
+    if (!rc) rc = write_document(c, in, s.doc, out, NULL);
     scene_free(&s);
     return rc;
 }
@@ -335,7 +370,7 @@ static int write_bytes(const char *path, char *bytes, size_t size)
     const char *slash = strrchr(path, '/');
     f.name = (char *)(slash ? slash + 1 : path);
     lp_error err = {0, ""};
-    int rc = output_write_all(path, &f, 1, &err);
+    int rc = output_write_all(path, &f, 1, NULL, 0, &err);
     if (rc) report(path, &err);
     return rc;
 }
@@ -609,7 +644,7 @@ typedef struct draco_job {
 static int draco_encode_all(scene *s, const draco_job *jobs, uint32_t count, const dracoout_options *o, lp_error *err)
 {
     const char *reference = getenv("LODPIPE_DRACO_REFERENCE");
-    if (reference && *reference && write_document(s->doc, reference, NULL) != 0)
+    if (reference && *reference && write_document(NULL, NULL, s->doc, reference, NULL) != 0)
         return lp_fail(err, LP_IO, "cannot write the Draco reference %s", reference);
     dracoout_stats stats = {0};
     int rc = LP_OK;
@@ -638,6 +673,10 @@ static int cmd_lod(const cli *c)
     scene s;
     int rc = load(c, in, &s);
     if (rc) return rc;
+    if ((rc = depfile_usable(c, s.doc)) != 0) {
+        scene_free(&s);
+        return rc;
+    }
     const int progress = !c->quiet && isatty(STDERR_FILENO);
     simplify_options opt = simplify_options_of(c);
     lodchain_options chain = {{c->config.switching.pixel_error, c->config.switching.viewport_height,
@@ -762,7 +801,7 @@ static int cmd_lod(const cli *c)
         return rc;
     }
     json_inputs(&j, in, s.doc);
-    rc = write_document(s.doc, out, &j);
+    rc = write_document(c, in, s.doc, out, &j);
     jsonw_raw(&j, "}\n");
     if (!rc && c->depfile) rc = write_depfile(c, in, out, s.doc);
     if (!rc && c->json) fputs(j.failed ? "{}\n" : j.text, stdout);

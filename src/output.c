@@ -92,12 +92,22 @@ int output_check_folder(const char *main_path, lp_error *err)
     return LP_OK;
 }
 
-int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, lp_error *err)
+int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, const output_guard *guards,
+                     size_t guard_count, lp_error *err)
 {
     char base[4096];
     folder_of(main_path, base, sizeof base);
     int rc = output_check_folder(main_path, err);
     if (rc) return rc;
+    for (size_t i = 0; i < count; ++i) {
+        char target[4200];
+        if (i == 0) snprintf(target, sizeof target, "%s", main_path);
+        else snprintf(target, sizeof target, "%s/%s", base, files[i].name);
+        for (size_t g = 0; g < guard_count; ++g)
+            if (output_same_path(target, guards[g].path) && !same_bytes(target, files[i].bytes, files[i].size))
+                return lp_fail(err, LP_USAGE, "%s (written with the output) is %s; choose another output name", target,
+                               guards[g].why);
+    }
 
     char (*temps)[4200] = calloc(count ? count : 1, sizeof *temps);
     char (*targets)[4200] = calloc(count ? count : 1, sizeof *targets);
@@ -133,4 +143,28 @@ int output_same_file(const char *a, const char *b)
     struct stat sa, sb;
     if (stat(a, &sa) != 0 || stat(b, &sb) != 0) return 0;
     return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
+
+/* The real path of path's folder joined with its last name, in out; 0 when
+ * the folder does not resolve. */
+static int canonical_entry(const char *path, char *out, size_t size)
+{
+    char folder[4096], *real;
+    folder_of(path, folder, sizeof folder);
+    const char *slash = strrchr(path, '/');
+    const char *name = slash ? slash + 1 : path;
+    if (!*name || !(real = realpath(folder, NULL))) return 0;
+    const int n = snprintf(out, size, "%s/%s", real, name);
+    free(real);
+    return n >= 0 && (size_t)n < size;
+}
+
+int output_same_path(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    const int ea = stat(a, &sa) == 0, eb = stat(b, &sb) == 0;
+    if (ea && eb) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    if (ea || eb) return 0;
+    char ca[8192], cb[8192];
+    return canonical_entry(a, ca, sizeof ca) && canonical_entry(b, cb, sizeof cb) && strcmp(ca, cb) == 0;
 }

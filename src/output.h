@@ -14,9 +14,21 @@
 #include "gltf_io/gltf_io.h"
 #include "status.h"
 
+/* A file the write must not replace: `path`, which `why` describes in the
+ * error ("a file the input reads", "the --depfile"). */
+typedef struct output_guard {
+    const char *path;
+    const char *why;
+} output_guard;
+
 /* `main_path` is the output path the user named; files[i].name are relative to
- * its folder, files[0] being the main file. */
-int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, lp_error *err);
+ * its folder, files[0] being the main file. Before anything is written, a
+ * target that is one of the guarded files (output_same_path) and would
+ * change is refused with LP_USAGE ("T (written with the output) is a file the
+ * input reads; choose another output name"): a .gltf output's .bin must not
+ * overwrite the buffer its input reads. */
+int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, const output_guard *guards,
+                     size_t guard_count, lp_error *err);
 
 /* LP_OK when the folder of main_path exists and may be written to, else the
  * error output_write_all would give (LP_IO). Callers check it before a long
@@ -26,5 +38,10 @@ int output_check_folder(const char *main_path, lp_error *err);
 
 /* 1 when a and b name the same existing file. */
 int output_same_file(const char *a, const char *b);
+
+/* 1 when a and b name the same file, existing or not: the same existing
+ * file, or neither exists and both name the same entry of the same folder
+ * (for a file about to be written). */
+int output_same_path(const char *a, const char *b);
 
 #endif

@@ -322,6 +322,69 @@ test('safe writes: refusal, missing and read-only folders, full disk', { skip },
     assert.deepEqual(listFilesRecursive(dir).sort(), ['alias.glb', 'duck.glb']);
   });
 
+  // A .gltf output writes <OUT stem>.bin: named after one of the input's own buffers, it would replace data
+  // the input needs (CesiumMilkTruck0.gltf next to CesiumMilkTruck.gltf, whose buffer is CesiumMilkTruck0.bin).
+  await t.test('an output whose .bin would replace a file the input reads -> exit 1, input intact', (st) => {
+    const dir = tempDir(st);
+    const names = ['CesiumMilkTruck.gltf', 'CesiumMilkTruck0.bin', 'CesiumMilkTruck.png'];
+    for (const f of names) fs.copyFileSync(corpusPath(`scenes/CesiumMilkTruck/${f}`), path.join(dir, f));
+    const before = fs.readFileSync(path.join(dir, 'CesiumMilkTruck0.bin'));
+    const input = path.join(dir, 'CesiumMilkTruck.gltf');
+    for (const args of [[input, '-o', path.join(dir, 'CesiumMilkTruck0.gltf')],
+                        [input, '-o', path.join(dir, 'CesiumMilkTruck0.gltf'), '--force'],
+                        ['convert', input, path.join(dir, 'CesiumMilkTruck0.gltf')]]) {
+      const r = runLodpipe(args);
+      const p = refusalProblems(r, 1, 'CesiumMilkTruck0.bin', dir, names);
+      if (!fs.readFileSync(path.join(dir, 'CesiumMilkTruck0.bin')).equals(before)) p.push('the input\'s buffer was changed');
+      assert.deepEqual(p, [], `${args.join(' ')}: ${describeRun(r)}`);
+    }
+    // beside the input under another name: its texture is "copied" onto itself (same bytes), which is fine
+    const beside = runLodpipe([input, '-o', path.join(dir, 'lod.gltf')]);
+    assert.equal(beside.status, 0, describeRun(beside));
+    assert.deepEqual(listFilesRecursive(dir).sort(), [...names, 'lod.bin', 'lod.gltf'].sort());
+    // a GLB input named like the .bin a .gltf output writes
+    const glbAsBin = path.join(dir, 'duck.bin');
+    fs.copyFileSync(DUCK, glbAsBin);
+    const r = runLodpipe([glbAsBin, '-o', path.join(dir, 'duck.gltf')]);
+    assert.deepEqual(refusalProblems(r, 1, 'duck.bin', dir, [...names, 'lod.bin', 'lod.gltf', 'duck.bin']), [], describeRun(r));
+    assert.ok(fs.readFileSync(glbAsBin).equals(fs.readFileSync(DUCK)), 'the input is unchanged');
+  });
+
+  await t.test('--depfile naming OUT, IN or a file IN reads, or in a missing folder -> refused before the work', (st) => {
+    const dir = tempDir(st);
+    const names = ['CesiumMilkTruck.gltf', 'CesiumMilkTruck0.bin', 'CesiumMilkTruck.png'];
+    for (const f of names) fs.copyFileSync(corpusPath(`scenes/CesiumMilkTruck/${f}`), path.join(dir, f));
+    const input = path.join(dir, 'CesiumMilkTruck.gltf');
+    const out = path.join(dir, 'out.glb');
+    const cases = [
+      [[input, '-o', out, '--depfile', out], 1, 'output'],
+      [[input, '-o', out, '--depfile', input], 1, 'input'],
+      [[input, '-o', out, '--depfile', path.join(dir, 'CesiumMilkTruck.png')], 1, 'CesiumMilkTruck.png'],
+      [[input, '-o', path.join(dir, 'out.gltf'), '--depfile', path.join(dir, 'out.bin')], 1, 'out.bin'],
+      [[input, '-o', out, '--depfile', path.join(dir, 'missing', 'x.d')], 4, 'missing'],
+    ];
+    const before = names.map((f) => fs.readFileSync(path.join(dir, f)));
+    for (const [args, code, name] of cases) {
+      const r = runLodpipe(args);
+      assert.deepEqual(refusalProblems(r, code, name, dir, names), [], `${args.join(' ')}: ${describeRun(r)}`);
+    }
+    names.forEach((f, i) => assert.ok(fs.readFileSync(path.join(dir, f)).equals(before[i]), `${f} unchanged`));
+  });
+
+  await t.test('.gltf output names that need percent-encoding: the buffer uri is encoded and reads back', (st) => {
+    const dir = tempDir(st);
+    for (const stem of ['a%20b', 'c#d', 'ö t', 'ab:c']) {
+      const out = path.join(dir, `${stem}.gltf`);
+      const r = runLodpipe([DUCK, '-o', out]);
+      assert.equal(r.status, 0, describeRun(r));
+      const uri = JSON.parse(fs.readFileSync(out, 'utf8')).buffers[0].uri;
+      assert.equal(decodeURIComponent(uri), `${stem}.bin`, `uri ${uri}`);
+      assert.match(uri.replace(/%[0-9A-F]{2}/g, ''), /^[A-Za-z0-9\-._~!$&'()*+,;=@]*$/, `uri ${uri}: a character that needs encoding`);
+      const back = runLodpipe(['inspect', out]);
+      assert.equal(back.status, 0, `lodpipe reads its own output: ${describeRun(back)}`);
+    }
+  });
+
   await t.test('a missing output folder -> exit 4, one line, nothing created', (st) => {
     const dir = tempDir(st);
     const r = runLodpipe([DUCK, '-o', path.join(dir, 'missing', 'out.glb')]);

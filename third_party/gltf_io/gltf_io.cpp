@@ -427,11 +427,14 @@ bool ends_with_ci(const std::string &s, const char *suffix)
 bool is_data_uri(const std::string &uri) { return uri.compare(0, 5, "data:") == 0; }
 
 // An external uri must stay inside the input's folder: relative, no "..", no scheme.
-bool uri_escapes(const std::string &decoded)
+bool uri_escapes(const std::string &uri, const std::string &decoded)
 {
     if (decoded.empty() || decoded[0] == '/' || decoded[0] == '\\') return true;
-    size_t colon = decoded.find(':'), slash = decoded.find('/');
+    // a scheme ("file:", "http:") is a ':' of the uri itself before any '/'; an
+    // encoded one (%3A) is part of a file name, as lodpipe writes "x:y.bin"
+    size_t colon = uri.find(':'), slash = uri.find('/');
     if (colon != std::string::npos && (slash == std::string::npos || colon < slash)) return true;
+    if (decoded.size() >= 2 && decoded[1] == ':' && isalpha((unsigned char)decoded[0])) return true; // C:
     std::stringstream ss(decoded);
     std::string seg;
     while (std::getline(ss, seg, '/'))
@@ -614,7 +617,7 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
             const std::string uri = buffers[b]["uri"].get<std::string>();
             if (!is_data_uri(uri)) {
                 const std::string decoded = tinygltf::dlib::urldecode(uri);
-                if (!opt.allow_external_uris && uri_escapes(decoded))
+                if (!opt.allow_external_uris && uri_escapes(uri, decoded))
                     fail(GLTF_INVALID, at("buffers", b) + ".uri \"" + uri +
                                            "\" points outside the input's folder (use --allow-external-uris)");
                 struct stat st;
@@ -667,7 +670,7 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
             const std::string uri = images[i]["uri"].get<std::string>();
             if (!is_data_uri(uri)) {
                 const std::string decoded = tinygltf::dlib::urldecode(uri);
-                if (!opt.allow_external_uris && uri_escapes(decoded))
+                if (!opt.allow_external_uris && uri_escapes(uri, decoded))
                     fail(GLTF_INVALID, path + ".uri \"" + uri + "\" points outside the input's folder (use --allow-external-uris)");
             }
         }
@@ -1585,6 +1588,27 @@ void add_file(std::vector<gltf_out_file> &files, const std::string &name, const 
     files.push_back(f);
 }
 
+// A file name as a relative uri reference (RFC 3986): unreserved characters
+// and the sub-delimiters stay, everything else (space, %, #, ?, :, non-ASCII
+// bytes of UTF-8) is percent-encoded, so "a%20b.gltf" refers to "a%2520b.bin"
+// and a reader decodes it back to the file's name.
+std::string uri_of_name(const std::string &name)
+{
+    static const char *const kHex = "0123456789ABCDEF";
+    std::string out;
+    for (unsigned char ch : name) {
+        const bool alnum = (ch >= '0' && ch <= '9') || (ch >= 'A' && ch <= 'Z') || (ch >= 'a' && ch <= 'z');
+        if (alnum || (ch && strchr("-._~!$&'()*+,;=@", ch))) {
+            out.push_back(char(ch));
+        } else {
+            out.push_back('%');
+            out.push_back(kHex[ch >> 4]);
+            out.push_back(kHex[ch & 15]);
+        }
+    }
+    return out;
+}
+
 void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<gltf_out_file> &files)
 {
     ojson root = doc->json;
@@ -1638,7 +1662,7 @@ void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<glt
         if (!old.empty() && !is_meshopt_fallback(old[0])) buffer = old[0];
         buffer.erase("uri");
         erase_ext(buffer, kMeshopt);
-        if (!glb) buffer["uri"] = stem + ".bin";
+        if (!glb) buffer["uri"] = uri_of_name(stem + ".bin");
         buffer["byteLength"] = bin.size();
         root["buffers"] = ojson::array({buffer});
     }
@@ -1647,7 +1671,7 @@ void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<glt
     const std::string side_name = stem + ".fallback.bin";
     if (!side.empty()) {
         ojson buffer = ojson::object();
-        buffer["uri"] = side_name;
+        buffer["uri"] = uri_of_name(side_name);
         buffer["byteLength"] = side.size();
         root["buffers"].push_back(buffer);
     }
