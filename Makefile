@@ -21,7 +21,7 @@ DEBIAN_PACKAGES := pkg-config libtinygltf-dev nlohmann-json3-dev libstb-dev libd
 	libmeshoptimizer-dev libopenmesh-dev libtomlplusplus-dev libcgal-dev libclang-rt-14-dev
 DEBIAN_TOOLS := g++:g++ make:make python3:python3 node:nodejs npm:npm clang:clang
 
-CPPFLAGS_COMMON := -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L -Isrc -Ithird_party
+CPPFLAGS_COMMON := -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L -Isrc -Ithird_party -I$(BUILD)/gen
 CFLAGS_COMMON   := -std=c11 -Wall -Wextra -Werror -pthread
 CXXFLAGS_COMMON := -std=c++17 -Wall -Wextra -pthread -I/usr/include/draco -Wno-unused-parameter
 LIBS            := -ldraco -lmeshoptimizer -ltomlplusplus -lm -pthread
@@ -41,6 +41,16 @@ UNIT_BIN := $(UNIT_SRC:tests/unit/%.c=$(BUILD)/asan/%)
 
 .PHONY: all deps run test unit asan clean bench hausdorff fuzz fuzz-build
 all: $(BUILD)/lodpipe
+
+# LODPIPE_SOURCE_ID: a hash of lodpipe's own source files, so that the batch cache
+# (and --version) tell two builds apart that carry the same version number but
+# would write different output. Regenerated whenever a source changes.
+SOURCE_FILES := $(SRC_C) $(sort $(wildcard src/*.h)) $(SRC_CXX) $(sort $(wildcard third_party/*/*.h))
+$(BUILD)/gen/source_id.h: $(SOURCE_FILES)
+	@mkdir -p $(dir $@)
+	@printf '#define LODPIPE_SOURCE_ID "%s"\n' "$$(cat $(SOURCE_FILES) | sha256sum | cut -c1-16)" > $@.tmp
+	@mv $@.tmp $@
+$(foreach o,src/batch.o src/main.o,$(BUILD)/obj/$(o) $(BUILD)/asan/obj/$(o) $(BUILD)/fuzz/obj/$(o)): $(BUILD)/gen/source_id.h
 
 $(BUILD)/lodpipe: $(OBJ)
 	$(CXX) -o $@ $^ $(LIBS)

@@ -409,7 +409,7 @@ static int write_manifest(batch *b, lp_error *err)
     }
     char *path = join_path(b->output_dir, MANIFEST_NAME);
     gltf_out_file f = {(char *)MANIFEST_NAME, (uint8_t *)w.text, w.length};
-    int rc = path ? output_write_all(path, &f, 1, err) : lp_fail(err, LP_IO, "out of memory");
+    int rc = path ? output_write_all(path, &f, 1, NULL, 0, err) : lp_fail(err, LP_IO, "out of memory");
     free(path);
     jsonw_free(&w);
     return rc;
@@ -429,7 +429,7 @@ static int compute_key_prefix(batch *b)
     config_write(&config, CONFIG_TOML, text, n + 1);
     sha256_ctx ctx;
     sha256_init(&ctx);
-    const char *head = "lodpipe batch cache key 1\nversion " LODPIPE_VERSION "\n";
+    const char *head = "lodpipe batch cache key 2\nversion " LODPIPE_VERSION "\nsource " LODPIPE_SOURCE_ID "\n";
     sha256_update(&ctx, head, strlen(head));
     sha256_update(&ctx, text, n);
     const char *uris = b->opt->allow_external_uris ? "allow_external_uris true\n" : "allow_external_uris false\n";
@@ -935,6 +935,24 @@ static int make_folders(const char *path)
     return mkdir(path, 0777) != 0 && errno != EEXIST ? -1 : 0;
 }
 
+/* 1 when folder (as stat gave it) is an ancestor of path: the job for
+ * SRC_DIR/R writes OUT_DIR/R, which for OUT_DIR = SRC_DIR/.. and R = "src/x"
+ * is SRC_DIR/src/x, another job's source. */
+static int folder_contains(const struct stat *folder, const char *path)
+{
+    char *real = realpath(path, NULL);
+    if (!real) return 0;
+    int found = 0;
+    for (char *slash; !found && (slash = strrchr(real, '/')) != NULL;) {
+        slash[slash == real] = 0; /* "/a" -> "/", "/a/b" -> "/a" */
+        struct stat st;
+        found = stat(real, &st) == 0 && st.st_dev == folder->st_dev && st.st_ino == folder->st_ino;
+        if (slash == real) break;
+    }
+    free(real);
+    return found;
+}
+
 static int prepare(batch *b, lp_error *err)
 {
     struct stat src;
@@ -944,6 +962,10 @@ static int prepare(batch *b, lp_error *err)
         return lp_fail(err, LP_IO, "%s: cannot create the output folder (%s)", b->output_dir, strerror(errno));
     if (src.st_dev == b->output_stat.st_dev && src.st_ino == b->output_stat.st_ino)
         return lp_fail(err, LP_USAGE, "%s: the output folder must differ from the source folder", b->output_dir);
+    if (folder_contains(&b->output_stat, b->source_dir))
+        return lp_fail(err, LP_USAGE,
+                       "%s: the output folder must not contain the source folder (an output could replace a source)",
+                       b->output_dir);
     ssize_t n = readlink("/proc/self/exe", b->self, sizeof b->self - 1);
     if (n <= 0 || (size_t)n >= sizeof b->self - 1) return lp_fail(err, LP_IO, "cannot find the lodpipe binary (/proc/self/exe)");
     b->self[n] = 0;

@@ -975,7 +975,7 @@ static int parse(int argc, char **argv, cli *c)
             free(config_args);
             exit(LP_OK);
         } else if (strcmp(a, "--version") == 0) {
-            printf("lodpipe %s\n", LODPIPE_VERSION);
+            printf("lodpipe %s (source %s)\n", LODPIPE_VERSION, LODPIPE_SOURCE_ID);
             free(config_args);
             exit(LP_OK);
         } else if (strcmp(a, "--force") == 0) {

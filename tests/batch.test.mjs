@@ -292,6 +292,19 @@ test('batch and depfile usage errors exit 1 with one line', { skip }, (t) => {
     assert.equal(r.status, 1, describeRun(r));
     assert.equal(r.stderr.trim().split('\n').length, 1, describeRun(r));
   }
+  // OUT_DIR above SRC_DIR: the output for src/a.glb would be SRC_DIR/src/a.glb, another source
+  const src = path.join(dir, 'p', 'src');
+  fs.mkdirSync(path.join(src, 'src'), { recursive: true });
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'a.glb'));
+  fs.copyFileSync(corpusPath('scenes/Duck.glb'), path.join(src, 'src', 'a.glb'));
+  for (const out of [path.join(dir, 'p'), dir]) {
+    const r = runLodpipe(['batch', src, '-o', out, '-j', '1']);
+    assert.equal(r.status, 1, describeRun(r));
+    assert.equal(r.stderr.trim().split('\n').length, 1, describeRun(r));
+    assert.match(r.stderr, /must not contain the source folder/);
+  }
+  assert.ok(fs.readFileSync(path.join(src, 'src', 'a.glb')).equals(fs.readFileSync(corpusPath('scenes/Duck.glb'))), 'sources unchanged');
+  assert.ok(fs.readFileSync(path.join(src, 'a.glb')).equals(fs.readFileSync(corpusPath('scans/suzanne.glb'))), 'sources unchanged');
   const missing = runLodpipe(['batch', path.join(dir, 'nothing'), '-o', path.join(dir, 'o2')]);
   assert.equal(missing.status, 4, describeRun(missing));
   assert.ok(!fs.existsSync(path.join(dir, 'o2')), 'no output folder for a missing source');
