@@ -425,11 +425,15 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
 
 /* ---- nodes --------------------------------------------------------------------- */
 
-/* Channel c of animation a: its target node (-1: none) and path (at most 15
- * characters, "" when absent). Returns 0, or -1 when there is no channel c. */
-static int channel_target(const scene *s, size_t a, size_t c, int64_t *node, char path[16])
+/* Channel c of animation a: the node it animates (-1: none) and the
+ * property, as the node's JSON pointer suffix: the target's path
+ * ("translation", "weights", ...), or for a KHR_animation_pointer channel
+ * (path "pointer") what follows "/nodes/N/" in its pointer (e.g.
+ * "extensions/KHR_node_visibility/visible"); at most 63 characters, else "".
+ * Returns 0, or -1 when there is no channel c. */
+static int channel_target(const scene *s, size_t a, size_t c, int64_t *node, char property[64])
 {
-    char pointer[128];
+    char pointer[160];
     snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu", a, c);
     char *text = gltf_get_json(s->doc, pointer);
     if (!text) return -1;
@@ -440,13 +444,64 @@ static int channel_target(const scene *s, size_t a, size_t c, int64_t *node, cha
     free(text);
     snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/path", a, c);
     text = gltf_get_json(s->doc, pointer);
-    const size_t len = text ? strlen(text) : 0; /* a JSON string: "..." */
-    path[0] = 0;
-    if (len >= 2 && len - 2 < 16 && text[0] == '"') {
-        memcpy(path, text + 1, len - 2);
-        path[len - 2] = 0;
+    size_t len = text ? strlen(text) : 0; /* a JSON string: "..." */
+    property[0] = 0;
+    if (len >= 2 && len - 2 < 64 && text[0] == '"') {
+        memcpy(property, text + 1, len - 2);
+        property[len - 2] = 0;
     }
     free(text);
+    if (strcmp(property, "pointer") != 0) return 0;
+    property[0] = 0;
+    *node = -1;
+    snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/extensions/KHR_animation_pointer/pointer", a,
+             c);
+    text = gltf_get_json(s->doc, pointer);
+    long long n = -1;
+    int at = 0;
+    len = text ? strlen(text) : 0;
+    /* "\"/nodes/N/rest\"": no escapes in the names lodpipe follows */
+    if (len >= 2 && text[0] == '"' && sscanf(text, "\"/nodes/%lld/%n", &n, &at) == 1 && at > 0 && n >= 0 &&
+        len - 1 - (size_t)at < 64 && !strchr(text + at, '\\')) {
+        *node = n;
+        memcpy(property, text + at, len - 1 - (size_t)at);
+        property[len - 1 - (size_t)at] = 0;
+    }
+    free(text);
+    return 0;
+}
+
+/* Points channel c of animation a at document node `node` for the same
+ * property (its target node, or its KHR_animation_pointer pointer). */
+static int retarget_channel(scene *s, size_t a, size_t c, int64_t node, const char *property)
+{
+    char pointer[160];
+    snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/extensions/KHR_animation_pointer/pointer", a,
+             c);
+    char *text = gltf_get_json(s->doc, pointer);
+    free(text);
+    if (text) {
+        jsonw j = {0};
+        jsonw_printf(&j, "\"/nodes/%lld/", (long long)node);
+        jsonw_raw(&j, property);
+        jsonw_raw(&j, "\"");
+        const int rc = j.failed ? -1 : gltf_set_json(s->doc, pointer, j.text);
+        jsonw_free(&j);
+        return rc;
+    }
+    char value[32];
+    snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/node", a, c);
+    snprintf(value, sizeof value, "%lld", (long long)node);
+    return gltf_set_json(s->doc, pointer, value);
+}
+
+/* The properties of a node that its LOD nodes copy and so must animate alike. */
+static int followed_property(const char *property)
+{
+    static const char *const kFollowed[] = {"translation", "rotation", "scale", "weights",
+                                            "extensions/KHR_node_visibility/visible"};
+    for (size_t k = 0; k < sizeof kFollowed / sizeof kFollowed[0]; ++k)
+        if (strcmp(property, kFollowed[k]) == 0) return 1;
     return 0;
 }
 
@@ -495,14 +550,12 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
     if (gltf_set_json(s->doc, to, value) != 0) return lp_fail(err, LP_INVALID, "cannot add a child to nodes[%u]", n), -1;
     /* morph weight animations follow the mesh */
     int64_t node;
-    char path[16];
+    char property[64];
     for (size_t a = 0; a < gltf_count(s->doc, GLTF_ANIMATIONS); ++a)
-        for (size_t c = 0; channel_target(s, a, c, &node, path) == 0; ++c)
-            if (node == (int64_t)n && strcmp(path, "weights") == 0) {
-                char pointer[128];
-                snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/node", a, c);
-                gltf_set_json(s->doc, pointer, value);
-            }
+        for (size_t c = 0; channel_target(s, a, c, &node, property) == 0; ++c)
+            if (node == (int64_t)n && strcmp(property, "weights") == 0 && retarget_channel(s, a, c, carrier, property))
+                return lp_fail(err, LP_INVALID, "cannot retarget an animation channel to nodes[%lld]", (long long)carrier),
+                       -1;
     return carrier;
 }
 
@@ -530,7 +583,7 @@ static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64
     if (id < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
     static const char *const kCopied[] = {"matrix",  "translation", "rotation",
                                           "scale",   "skin",        "weights",
-                                          "extensions/EXT_mesh_gpu_instancing"};
+                                          "extensions/EXT_mesh_gpu_instancing", "extensions/KHR_node_visibility"};
     for (size_t k = 0; k < sizeof kCopied / sizeof kCopied[0]; ++k) {
         char from[96], to[96];
         snprintf(from, sizeof from, "/nodes/%lld/%s", (long long)from_node, kCopied[k]);
@@ -541,34 +594,30 @@ static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64
 }
 
 /* The animation channels that move document node `node` (translation,
- * rotation, scale) or drive its morph weights, copied once for each of its
- * LOD nodes, which a client shows in its place: otherwise an animated node's
- * coarse levels would stand still. Same sampler, appended after the channels
- * the animation had. */
+ * rotation, scale), drive its morph weights or its KHR_node_visibility,
+ * whether by target node and path or by a KHR_animation_pointer, copied once
+ * for each of its LOD nodes, which a client shows in its place: otherwise an
+ * animated node's coarse levels would stand still (or stay visible). Same
+ * sampler, appended after the channels the animation had. */
 static int follow_animations(scene *s, int64_t node, const int64_t *lod_nodes, uint32_t lod_count, lp_error *err)
 {
     for (size_t a = 0; a < gltf_count(s->doc, GLTF_ANIMATIONS); ++a) {
         int64_t target;
-        char path[16], pointer[128];
+        char property[64], pointer[128];
         size_t channels = 0;
-        while (channel_target(s, a, channels, &target, path) == 0) channels++;
+        while (channel_target(s, a, channels, &target, property) == 0) channels++;
         size_t appended = 0;
         for (size_t c = 0; c < channels; ++c) {
-            channel_target(s, a, c, &target, path);
-            const int followed = strcmp(path, "translation") == 0 || strcmp(path, "rotation") == 0 ||
-                                 strcmp(path, "scale") == 0 || strcmp(path, "weights") == 0;
-            if (target != node || !followed) continue;
+            channel_target(s, a, c, &target, property);
+            if (target != node || !followed_property(property)) continue;
             snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu", a, c);
             char *channel = gltf_get_json(s->doc, pointer);
             if (!channel) return lp_fail(err, LP_INVALID, "out of memory");
             for (uint32_t k = 0; k < lod_count; ++k) {
-                char to[128], value[32];
+                char to[128];
                 snprintf(to, sizeof to, "/animations/%zu/channels/-", a);
-                snprintf(value, sizeof value, "%lld", (long long)lod_nodes[k]);
                 const size_t at = channels + appended++;
-                char node_pointer[128];
-                snprintf(node_pointer, sizeof node_pointer, "/animations/%zu/channels/%zu/target/node", a, at);
-                if (gltf_set_json(s->doc, to, channel) != 0 || gltf_set_json(s->doc, node_pointer, value) != 0) {
+                if (gltf_set_json(s->doc, to, channel) != 0 || retarget_channel(s, a, at, lod_nodes[k], property) != 0) {
                     free(channel);
                     return lp_fail(err, LP_INVALID, "cannot add an animation channel for a LOD node");
                 }

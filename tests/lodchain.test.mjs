@@ -463,6 +463,40 @@ test('EXT_mesh_gpu_instancing: LOD nodes instanced like their node, distances fo
   });
 });
 
+// KHR_node_visibility and KHR_animation_pointer (no corpus asset has them): LOD nodes are hidden like their
+// node, and a channel that moves the node or switches its visibility through a pointer is copied for each
+// LOD node with the pointer retargeted, as the plain target.node channels are.
+test('KHR_node_visibility and KHR_animation_pointer: LOD nodes hidden and animated like their node', { skip: skipRuns }, async (t) => {
+  const input = cowVariant(tempDir(t), 'cow_pointer.gltf', (j, node, addAccessor) => {
+    const times = addAccessor([0, 1], 'SCALAR', 2);
+    const moves = addAccessor([0, 0, 0, 3, 0, 0], 'VEC3', 2);
+    const flags = new Uint8Array([1, 0, 0, 0]); // booleans: unsigned bytes, padded to 4
+    const b = j.buffers.push({ byteLength: 4, uri: `data:application/octet-stream;base64,${Buffer.from(flags).toString('base64')}` }) - 1;
+    const v = j.bufferViews.push({ buffer: b, byteLength: 2 }) - 1;
+    const shown = j.accessors.push({ bufferView: v, componentType: 5121, count: 2, type: 'SCALAR' }) - 1;
+    const pointer = (p) => ({ path: 'pointer', extensions: { KHR_animation_pointer: { pointer: `/nodes/${node}/${p}` } } });
+    j.animations = [{ name: 'blink', samplers: [{ input: times, output: moves }, { input: times, output: shown, interpolation: 'STEP' }],
+      channels: [{ sampler: 0, target: pointer('translation') }, { sampler: 1, target: pointer('extensions/KHR_node_visibility/visible') }] }];
+    j.nodes[node].extensions = { ...(j.nodes[node].extensions || {}), KHR_node_visibility: { visible: true } };
+    j.extensionsUsed = [...(j.extensionsUsed || []), 'KHR_animation_pointer', 'KHR_node_visibility'];
+  });
+  const run = mainJob(input, '.glb', [], {});
+  assert.deepEqual(runFatal(run), [], `the main job failed\n${describeRun(run.r)}`);
+  const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary, hausdorff: false });
+  await assertAspects(t, res, 'cow with pointer channels', CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  await t.test('the file: 2 channels + 2 per LOD node, each pointing at its LOD node; LOD nodes carry the visibility', () => {
+    const j = readRaw(run.out).json;
+    const ids = j.nodes.find((n) => n.extensions?.MSFT_lod)?.extensions.MSFT_lod.ids || [];
+    assert.ok(ids.length > 0, 'a chain');
+    assert.equal(j.animations[0].channels.length, 2 + 2 * ids.length);
+    for (const id of ids) {
+      const pointers = j.animations[0].channels.map((c) => c.target.extensions.KHR_animation_pointer.pointer).filter((p) => p.startsWith(`/nodes/${id}/`));
+      assert.deepEqual(pointers.sort(), [`/nodes/${id}/extensions/KHR_node_visibility/visible`, `/nodes/${id}/translation`]);
+      assert.deepEqual(j.nodes[id].extensions?.KHR_node_visibility, { visible: true });
+    }
+  });
+});
+
 // A mesh of the default scene that a node of another scene uses too (no corpus asset has one): the chain
 // goes on every node that uses the mesh (README "Output format"), so a client that switches scenes sees
 // it there as well, with switching distances for that node's own world scale.

@@ -750,6 +750,23 @@ const TRANSFORM_KEYS = ['matrix', 'translation', 'rotation', 'scale', 'skin', 'w
  * node's mesh (and skin/weights), and the node must have lost exactly those. Returns
  * Map(carrier -> node) (the carrier's transform, none, is what its LOD nodes copy).
  */
+/**
+ * What an animation channel animates: { node, prop } with prop the node's JSON pointer suffix, from
+ * target.node and target.path, or for a KHR_animation_pointer channel (path "pointer") from its
+ * "/nodes/N/prop" pointer; node undefined when it animates no node.
+ */
+export function channelTarget(ch) {
+  if (ch?.target?.path !== 'pointer') return { node: ch?.target?.node, prop: ch?.target?.path };
+  const m = /^\/nodes\/(\d+)\/(.+)$/.exec(ch.target.extensions?.KHR_animation_pointer?.pointer ?? '');
+  return m ? { node: Number(m[1]), prop: m[2] } : { node: undefined, prop: undefined };
+}
+
+/** Points a channel at node n for the same property (its target node, or its pointer). */
+function retargetChannel(ch, n) {
+  if (ch.target.path === 'pointer') ch.target.extensions.KHR_animation_pointer.pointer = `/nodes/${n}/${channelTarget(ch).prop}`;
+  else ch.target.node = n;
+}
+
 export function foldCarriers(j, jin, nInNodes, notes) {
   const carriers = new Map();
   (j.nodes || []).forEach((n, i) => {
@@ -771,7 +788,7 @@ export function foldCarriers(j, jin, nInNodes, notes) {
     if (cn.extensions.EXT_mesh_gpu_instancing) n.extensions.EXT_mesh_gpu_instancing = cn.extensions.EXT_mesh_gpu_instancing;
     if (cn.extras) n.extras = { ...(n.extras || {}), ...cn.extras };
     if (n.extras?.lodpipe?.levels?.[0]?.node === c) n.extras.lodpipe.levels[0].node = i;
-    for (const a of j.animations || []) for (const ch of a.channels || []) if (ch.target?.node === c) ch.target.node = i;
+    for (const a of j.animations || []) for (const ch of a.channels || []) if (channelTarget(ch).node === c) retargetChannel(ch, i);
     j.nodes[c] = { name: cn.name };
     notes.push(`node ${i} hands its mesh to carrier node ${c}; checked as if the chain were on node ${i}`);
   }
@@ -944,6 +961,9 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
         // an instanced node's LOD nodes are instanced the same way (a client shows every instance at every level)
         const inst = nodes[n].extensions?.EXT_mesh_gpu_instancing;
         if (!deepEqual(lod.extensions?.EXT_mesh_gpu_instancing, inst)) P('chain', `${lt}: EXT_mesh_gpu_instancing ${JSON.stringify(lod.extensions?.EXT_mesh_gpu_instancing)} differs from the node's ${JSON.stringify(inst)}`);
+        // a hidden node's LOD nodes are hidden alike (a carrier's sit under the node, which hides them)
+        const vis = carried ? undefined : nodes[n].extensions?.KHR_node_visibility;
+        if (!deepEqual(lod.extensions?.KHR_node_visibility, vis)) P('chain', `${lt}: KHR_node_visibility ${JSON.stringify(lod.extensions?.KHR_node_visibility)}, the node's ${JSON.stringify(vis)}`);
         const want = e.levels[k]?.mesh;
         if (lod.mesh !== want) P('chain', `${lt}: mesh ${lod.mesh}, the --json summary says level ${e.levels[k]?.level} is mesh ${want}`);
         const key = `${m},${k}`;
@@ -1239,26 +1259,30 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
   // the copies are set aside so that the animations compare unchanged
   const lodOwner = new Map();
   nodes.forEach((n, i) => (n.extensions?.MSFT_lod?.ids || []).forEach((id) => { if (id >= nInNodes) lodOwner.set(id, i); }));
-  const FOLLOWED = ['translation', 'rotation', 'scale', 'weights'];
+  // (by target node and path, or by a KHR_animation_pointer "/nodes/N/..." pointer; KHR_node_visibility too)
+  const FOLLOWED = ['translation', 'rotation', 'scale', 'weights', 'extensions/KHR_node_visibility/visible'];
   (j.animations || []).forEach((an, ai) => {
     const channels = an.channels || [];
-    const own = channels.filter((ch) => !lodOwner.has(ch.target?.node));
-    const copies = channels.filter((ch) => lodOwner.has(ch.target?.node));
-    if (channels.slice(own.length).some((ch) => !lodOwner.has(ch.target?.node))) {
+    const isCopy = (ch) => lodOwner.has(channelTarget(ch).node);
+    const own = channels.filter((ch) => !isCopy(ch));
+    const copies = channels.filter(isCopy);
+    if (channels.slice(own.length).some((ch) => !isCopy(ch))) {
       P('unchanged', `/animations/${ai}: the channels for LOD nodes are not all after the input's channels`);
     }
-    const same = (x, y) => x.sampler === y.sampler && x.target?.path === y.target?.path;
+    const same = (x, y) => x.sampler === y.sampler && x.target?.path === y.target?.path && channelTarget(x).prop === channelTarget(y).prop;
     for (const ch of copies) {
-      const owner = lodOwner.get(ch.target.node);
-      if (!own.some((o) => o.target?.node === owner && same(o, ch))) P('unchanged', `/animations/${ai}: a channel for LOD node ${ch.target.node} (sampler ${ch.sampler}, ${ch.target.path}) copies no channel of its node ${owner}`);
+      const { node: id, prop } = channelTarget(ch);
+      const owner = lodOwner.get(id);
+      if (!own.some((o) => channelTarget(o).node === owner && same(o, ch))) P('unchanged', `/animations/${ai}: a channel for LOD node ${id} (sampler ${ch.sampler}, ${prop}) copies no channel of its node ${owner}`);
     }
     const carried = new Set(carriers.values());
     for (const o of own) {
-      if (!FOLLOWED.includes(o.target?.path)) continue;
+      const { node, prop } = channelTarget(o);
+      if (!FOLLOWED.includes(prop)) continue;
       // a carrier's LOD nodes take the carrier's place under the node: the node's own TRS moves them already
-      if (carried.has(o.target?.node) && o.target.path !== 'weights') continue;
-      for (const id of nodes[o.target?.node]?.extensions?.MSFT_lod?.ids || []) {
-        if (id >= nInNodes && !copies.some((ch) => ch.target.node === id && same(o, ch))) P('chain', `/animations/${ai}: LOD node ${id} does not follow node ${o.target.node}'s ${o.target.path} channel (sampler ${o.sampler})`);
+      if (carried.has(node) && prop !== 'weights') continue;
+      for (const id of nodes[node]?.extensions?.MSFT_lod?.ids || []) {
+        if (id >= nInNodes && !copies.some((ch) => channelTarget(ch).node === id && same(o, ch))) P('chain', `/animations/${ai}: LOD node ${id} does not follow node ${node}'s ${prop} channel (sampler ${o.sampler})`);
       }
     }
     an.channels = own;
