@@ -432,13 +432,42 @@ int config_load(lp_config *config, const char *path, lp_error *err)
 
 /* ---- flags ---------------------------------------------------------------- */
 
+/* A decimal number at p after any spaces ([+-] digits [. digits] [e [+-] digits], as TOML
+ * writes them), its end in *end; 0, or -1 when p holds none. strtod alone
+ * would also take "0x10", "inf" and "nan". */
+static int scan_decimal(const char *p, char **end, double *out)
+{
+    while (*p == ' ') ++p;
+    const char *q = p;
+    if (*q == '+' || *q == '-') ++q;
+    size_t digits = 0;
+    while (*q >= '0' && *q <= '9') ++q, ++digits;
+    if (*q == '.') {
+        ++q;
+        while (*q >= '0' && *q <= '9') ++q, ++digits;
+    }
+    if (!digits) return -1;
+    if (*q == 'e' || *q == 'E') {
+        const char *e = q + 1;
+        if (*e == '+' || *e == '-') ++e;
+        if (*e < '0' || *e > '9') return -1;
+        while (*e >= '0' && *e <= '9') ++e;
+        q = e;
+    }
+    char *stop;
+    *out = strtod(p, &stop);
+    if (stop != q) return -1;
+    *end = stop;
+    return 0;
+}
+
 /* Whole-text parses; each returns 0 or -1. */
 static int parse_double(const char *text, double *out)
 {
     char *end;
     errno = 0;
-    double v = strtod(text, &end);
-    if (end == text) return -1;
+    double v;
+    if (scan_decimal(text, &end, &v)) return -1;
     while (*end == ' ') ++end;
     if (*end) return -1;
     *out = v;
@@ -478,8 +507,8 @@ int config_set(lp_config *config, const char *name, const char *text, lp_error *
         const char *p = text;
         for (;;) {
             char *end;
-            double v = strtod(p, &end);
-            if (end == p) {
+            double v;
+            if (scan_decimal(p, &end, &v)) {
                 snprintf(problem, sizeof problem,
                          "expected comma-separated percentages of the diagonal, e.g. 1,3,7,15");
                 goto fail;
@@ -544,8 +573,8 @@ int config_set(lp_config *config, const char *name, const char *text, lp_error *
         while (*p == ' ') ++p;
         while (*p) { /* "" is the empty set */
             char *end;
-            double v = strtod(p, &end);
-            if (end == p) {
+            double v;
+            if (scan_decimal(p, &end, &v)) {
                 snprintf(problem, sizeof problem, "expected comma-separated level numbers, e.g. 3,4");
                 goto fail;
             }
@@ -565,6 +594,19 @@ int config_set(lp_config *config, const char *name, const char *text, lp_error *
     return LP_OK;
 fail:
     return lp_fail(err, LP_USAGE, "%.100s %.100s: %s", name, text, problem);
+}
+
+int config_check(const lp_config *config, lp_error *err)
+{
+    const uint32_t set = config->lod.optimal_levels;
+    if (set && config->lod.placement != 1)
+        return lp_fail(err, LP_USAGE, "lod.optimal_levels (--optimal-levels) applies only with lod.placement = "
+                                      "\"optimal\" (--placement optimal)");
+    for (uint32_t k = (uint32_t)config->lod.level_count; k < 32; ++k)
+        if (set >> k & 1u)
+            return lp_fail(err, LP_USAGE, "lod.optimal_levels (--optimal-levels) names level %u, but lod.levels has %zu",
+                           k + 1, config->lod.level_count);
+    return LP_OK;
 }
 
 /* ---- comparing and writing ------------------------------------------------ */

@@ -127,6 +127,12 @@ int config_load(lp_config *config, const char *path, lp_error *err);
  *   --draco           draco.enabled   (a switch: the CLI passes "true")    */
 int config_set(lp_config *config, const char *name, const char *value_text, lp_error *err);
 
+/* The rules between keys, for the configuration in effect once the file and
+ * every flag are applied: lod.optimal_levels only with lod.placement =
+ * "optimal", and naming only levels lod.levels has. Returns LP_OK, or
+ * LP_USAGE with err filled. */
+int config_check(const lp_config *config, lp_error *err);
+
 /* Is `flag` one of the flags above? Returns 0 if not; 1 for a flag that takes
  * the next argument as its value; 2 for a switch that takes none (--draco). */
 int config_flag(const char *flag);

@@ -1009,6 +1009,7 @@ static int parse(int argc, char **argv, cli *c)
     for (size_t k = 0; !rc && k < config_argc; k += 2)
         if ((rc = config_set(&c->config, config_args[k], config_args[k + 1], &err)) != 0)
             fprintf(stderr, "lodpipe: %s\n", err.msg);
+    if (!rc && (rc = config_check(&c->config, &err)) != 0) fprintf(stderr, "lodpipe: %s\n", err.msg);
     free(config_args);
     if (rc) return rc;
     for (size_t k = 0; k < c->config.lod.level_count && k < SIMPLIFY_MAX_LEVELS; ++k)

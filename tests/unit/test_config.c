@@ -524,12 +524,18 @@ static const flag_error kFlagErrors[] = {
     {"--levels", "1,3,", "--levels 1,3,: expected comma-separated percentages of the diagonal, e.g. 1,3,7,15"},
     {"--levels", "1;3", "--levels 1;3: expected comma-separated percentages of the diagonal, e.g. 1,3,7,15"},
     {"--levels", "1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16,17", "--levels 1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16,17: must have 1 to 16 values"},
-    {"--levels", "nan", "--levels nan: value 1 must be in (0, 100] percent of the diagonal, got nan"},
+    {"--levels", "nan", "--levels nan: expected comma-separated percentages of the diagonal, e.g. 1,3,7,15"},
     {"--pixel-error", "0", "--pixel-error 0: must be > 0, got 0"},
     {"--pixel-error", "-1", "--pixel-error -1: must be > 0, got -1"},
     {"--pixel-error", "two", "--pixel-error two: must be a number"},
     {"--pixel-error", "2px", "--pixel-error 2px: must be a number"},
-    {"--pixel-error", "inf", "--pixel-error inf: must be a finite number > 0, got inf"},
+    {"--pixel-error", "inf", "--pixel-error inf: must be a number"},
+    {"--pixel-error", "nan", "--pixel-error nan: must be a number"},
+    {"--pixel-error", "0x10", "--pixel-error 0x10: must be a number"},
+    {"--pixel-error", "1e", "--pixel-error 1e: must be a number"},
+    {"--levels", "0x10", "--levels 0x10: expected comma-separated percentages of the diagonal, e.g. 1,3,7,15"},
+    {"--levels", "1,inf", "--levels 1,inf: expected comma-separated percentages of the diagonal, e.g. 1,3,7,15"},
+    {"--optimal-levels", "0x2", "--optimal-levels 0x2: expected comma-separated level numbers, e.g. 3,4"},
     {"--viewport-height", "0", "--viewport-height 0: must be > 0, got 0"},
     {"--viewport-height", "", "--viewport-height : must be a number"},
     {"--fov-y", "3.2", "--fov-y 3.2: must be in (0, pi) radians, got 3.2"},
@@ -563,6 +569,27 @@ static void test_flag_errors(void)
         CHECK(strcmp(err.msg, t->message) == 0, "got '%s', want '%s'", err.msg, t->message);
         CHECK(config_equal(&c, &d), "%s %s: changed the configuration", t->name, t->text);
     }
+}
+
+/* The rules between keys: lod.optimal_levels needs placement "optimal" and
+ * may name only levels lod.levels has. */
+static void test_config_check(void)
+{
+    lp_config c;
+    lp_error err = {0, ""};
+    config_defaults(&c);
+    CHECK(config_check(&c, &err) == LP_OK, "the defaults pass: %s", err.msg);
+    CHECK(config_set(&c, "--optimal-levels", "3,4", &err) == LP_OK, "set");
+    CHECK(config_check(&c, &err) == LP_USAGE && strstr(err.msg, "applies only with lod.placement"), "half-edge: %s",
+          err.msg);
+    CHECK(config_set(&c, "--placement", "optimal", &err) == LP_OK, "set");
+    CHECK(config_check(&c, &err) == LP_OK, "levels 3,4 of 4: %s", err.msg);
+    CHECK(config_set(&c, "--levels", "1,3", &err) == LP_OK, "set");
+    CHECK(config_check(&c, &err) == LP_USAGE &&
+              strcmp(err.msg, "lod.optimal_levels (--optimal-levels) names level 3, but lod.levels has 2") == 0,
+          "levels 3,4 of 2: %s", err.msg);
+    CHECK(config_set(&c, "--optimal-levels", "2", &err) == LP_OK && config_check(&c, &err) == LP_OK, "level 2 of 2: %s",
+          err.msg);
 }
 
 /* ---- canonical text --------------------------------------------------------- */
@@ -694,6 +721,7 @@ int main(void)
     RUN(test_failed_load_keeps_previous_values);
     RUN(test_flags);
     RUN(test_flag_errors);
+    RUN(test_config_check);
     RUN(test_canonical_text_of_defaults);
     RUN(test_canonical_text_identity);
     return check_summary();
