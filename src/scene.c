@@ -459,11 +459,17 @@ static void warn_degenerate(scene *s, uint32_t m)
         }
         for (uint32_t v = 0; used && v < p->vertex_count; ++v) unused += !used[v];
         free(used);
-        /* vertices another primitive also reads (a LOD mesh shares its original's) may be its */
-        const scene_stream *position = NULL;
-        for (uint32_t a = 0; a < p->stream_count; ++a)
-            if (p->streams[a].values == p->positions) position = &p->streams[a];
-        if (position && gltf_accessor_refs_at_load(s->doc, (size_t)position->accessor) > 1) unused = 0;
+        /* vertices another primitive also reads may be its: a LOD mesh shares
+         * its original's accessors, and a level with placed vertices has a
+         * POSITION of its own, sparse over the original's data */
+        for (uint32_t a = 0; a < p->stream_count; ++a) {
+            gltf_accessor acc;
+            const size_t index = (size_t)p->streams[a].accessor;
+            if (gltf_accessor_refs_at_load(s->doc, index) > 1 ||
+                (p->streams[a].values == p->positions && gltf_get_accessor(s->doc, index, &acc) == 0 &&
+                 acc.has_sparse && acc.buffer_view >= 0))
+                unused = 0;
+        }
         uint32_t duplicates = duplicate_triangles(p);
         if (flat)
             warn(s, "meshes[%u].primitives[%u]: %u of %u triangles have no area (kept in LOD0; levels may drop them)",

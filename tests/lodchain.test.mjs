@@ -463,6 +463,18 @@ test('EXT_mesh_gpu_instancing: LOD nodes instanced like their node, distances fo
   });
 });
 
+// A level with placed vertices has a POSITION of its own but shares its other accessors with LOD0, and
+// uses a prefix of them by design: reading lodpipe's output back must not warn about unused vertices.
+test('lodpipe\'s output with placed levels reads back without unused-vertex warnings', { skip: skipRuns }, () => {
+  const run = mainJob(corpusPath('scans/cow.glb'), '.glb', ['--placement', 'optimal'], { tag: 'placed' });
+  assert.deepEqual(runFatal(run), [], describeRun(run.r));
+  const placed = readRaw(run.out).json.meshes.filter((m, i) => i > 0 && m.primitives[0].attributes.POSITION !== readRaw(run.out).json.meshes[0].primitives[0].attributes.POSITION);
+  assert.ok(placed.length > 0, 'a level placed vertices');
+  const r = runLodpipe(['inspect', run.out]);
+  assert.equal(r.status, 0, describeRun(r));
+  assert.doesNotMatch(r.stderr, /used by no triangle/);
+});
+
 // KHR_node_visibility and KHR_animation_pointer (no corpus asset has them): LOD nodes are hidden like their
 // node, and a channel that moves the node or switches its visibility through a pointer is copied for each
 // LOD node with the pointer retargeted, as the plain target.node channels are.
