@@ -224,6 +224,42 @@ test('limits: refused before allocation, with a one-line error', { skip }, async
     assertRefused(st, f, 2, /outside the input's folder/);
   });
 
+  // With the flag, images outside the input's folder are read where they are (a relative "..", an absolute
+  // path, a file:// uri) and the output refers to the same files: the relative one rewritten for the output's
+  // folder, the others kept; nothing is written outside the output folder. Another scheme cannot be read.
+  await t.test('--allow-external-uris: "../", absolute and file:// images are read and still reached from the output', (st) => {
+    const root = tempDir(st);
+    const m = triangleModel();
+    m.json.buffers[0].uri = `data:application/octet-stream;base64,${m.bin.toString('base64')}`;
+    const png = fs.readFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck.png'));
+    fs.mkdirSync(path.join(root, 'assets', 'models'), { recursive: true });
+    fs.mkdirSync(path.join(root, 'build', 'lod'), { recursive: true });
+    fs.writeFileSync(path.join(root, 'assets', 'rel.png'), png);
+    fs.writeFileSync(path.join(root, 'abs.png'), png);
+    const absPath = path.join(root, 'abs.png');
+    m.json.images = [{ uri: '../rel.png' }, { uri: absPath }, { uri: `file://${absPath}` }];
+    m.json.textures = m.json.images.map((_, i) => ({ source: i }));
+    const f = path.join(root, 'assets', 'models', 'm.gltf');
+    fs.writeFileSync(f, JSON.stringify(m.json));
+    assertRefused(st, f, 2, /outside the input's folder/);
+    for (const out of [path.join(root, 'build', 'lod', 'm.gltf'), path.join(root, 'assets', 'models', 'm_out.glb')]) {
+      const r = runLodpipe(['convert', '--allow-external-uris', f, out]);
+      assert.equal(r.status, 0, describeRun(r));
+      const j = out.endsWith('.glb') ? parseGlb(fs.readFileSync(out)).json : JSON.parse(fs.readFileSync(out, 'utf8'));
+      const uris = j.images.map((i) => i.uri);
+      assert.deepEqual(uris.slice(1), [absPath, `file://${absPath}`], 'absolute and file:// uris kept');
+      assert.ok(fs.readFileSync(path.resolve(path.dirname(out), decodeURIComponent(uris[0]))).equals(png), `${uris[0]} from ${out} reaches the texture`);
+      const back = runLodpipe(['inspect', '--allow-external-uris', out]);
+      assert.equal(back.status, 0, `the output reads back: ${describeRun(back)}`);
+    }
+    assert.deepEqual(listFilesRecursive(path.join(root, 'build')).sort(), ['lod/', 'lod/m.bin', 'lod/m.gltf'], 'nothing copied or written elsewhere');
+    m.json.images = [{ uri: 'http://example.com/t.png' }];
+    m.json.textures = [{ source: 0 }];
+    fs.writeFileSync(f, JSON.stringify(m.json));
+    const web = runLodpipe(['convert', '--allow-external-uris', f, path.join(root, 'build', 'web.glb')]);
+    assert.deepEqual(refusalProblems(web, 4, 'not a local file', null), [], describeRun(web));
+  });
+
   await t.test('JSON nested 100,000 deep in extras -> exit 2; 400 deep is kept', (st) => {
     const deep = (d) => `{"asset":{"version":"2.0"},"extras":${'['.repeat(d)}${']'.repeat(d)}}`;
     const f = path.join(dir, 'deep_json.gltf');

@@ -22,6 +22,7 @@
 #include <meshoptimizer.h>
 #include <nlohmann/json.hpp>
 
+#include <strings.h>
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -442,6 +443,45 @@ bool uri_escapes(const std::string &uri, const std::string &decoded)
     return false;
 }
 
+// A file name, or with keep_slash a path, as a uri reference (RFC 3986):
+// unreserved characters and the sub-delimiters stay, everything else (space,
+// %, #, ?, :, non-ASCII bytes of UTF-8) is percent-encoded, so "a%20b.gltf"
+// refers to "a%2520b.bin" and a reader decodes it back to the file's name.
+std::string uri_of_name(const std::string &name, bool keep_slash = false)
+{
+    static const char *const kHex = "0123456789ABCDEF";
+    std::string out;
+    for (unsigned char ch : name) {
+        const bool alnum = (ch >= '0' && ch <= '9') || (ch >= 'A' && ch <= 'Z') || (ch >= 'a' && ch <= 'z');
+        if (alnum || (ch && strchr("-._~!$&'()*+,;=@", ch)) || (keep_slash && ch == '/')) {
+            out.push_back(char(ch));
+        } else {
+            out.push_back('%');
+            out.push_back(kHex[ch >> 4]);
+            out.push_back(kHex[ch & 15]);
+        }
+    }
+    return out;
+}
+
+// The file an external uri names: the input's folder joined with the decoded
+// uri; an absolute path or a file:// uri as it is (the load refuses those
+// without --allow-external-uris); "" for any other scheme (http:, ...) or a
+// file:// uri of another host: not a file lodpipe can read.
+std::string resolve_uri(const std::string &dir, const std::string &uri)
+{
+    if (uri.size() >= 7 && strncasecmp(uri.c_str(), "file://", 7) == 0) {
+        std::string rest = uri.substr(7);
+        if (rest.compare(0, 9, "localhost") == 0) rest = rest.substr(9);
+        return !rest.empty() && rest[0] == '/' ? tinygltf::dlib::urldecode(rest) : std::string();
+    }
+    const size_t colon = uri.find(':'), slash = uri.find('/');
+    if (colon != std::string::npos && (slash == std::string::npos || colon < slash)) return std::string();
+    const std::string decoded = tinygltf::dlib::urldecode(uri);
+    if (!decoded.empty() && decoded[0] == '/') return decoded;
+    return dir == "." ? decoded : tinygltf::JoinPath(dir, decoded);
+}
+
 uint32_t rd32(const uint8_t *p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24; }
 
 void wr32(std::vector<uint8_t> &v, uint32_t x)
@@ -621,7 +661,8 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
                     fail(GLTF_INVALID, at("buffers", b) + ".uri \"" + uri +
                                            "\" points outside the input's folder (use --allow-external-uris)");
                 struct stat st;
-                std::string full = tinygltf::JoinPath(dir, decoded);
+                const std::string full = resolve_uri(dir, uri);
+                if (full.empty()) fail(GLTF_IO, at("buffers", b) + ": cannot read \"" + uri + "\" (not a local file)");
                 if (stat(full.c_str(), &st) != 0) fail(GLTF_IO, at("buffers", b) + ": cannot read \"" + uri + "\"");
                 uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
                 if (uint64_t(st.st_size) > cap) fail(GLTF_INVALID, at("buffers", b) + ": \"" + uri + "\" is too large");
@@ -672,6 +713,7 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
                 const std::string decoded = tinygltf::dlib::urldecode(uri);
                 if (!opt.allow_external_uris && uri_escapes(uri, decoded))
                     fail(GLTF_INVALID, path + ".uri \"" + uri + "\" points outside the input's folder (use --allow-external-uris)");
+                if (resolve_uri(dir, uri).empty()) fail(GLTF_IO, path + ": cannot read \"" + uri + "\" (not a local file)");
             }
         }
     }
@@ -682,15 +724,29 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
 // here, so tinygltf's own rules for meshes and accessors (which reject valid
 // Draco files) never apply. A meshopt fallback buffer has no data by design, so
 // it gets a one-word stand-in; the views that read it are decoded instead.
-ojson json_for_tinygltf(const ojson &root)
+// Every external uri is handed over as the file resolve_uri names (tinygltf is
+// given no folder of its own), so an absolute or file:// uri reads what the
+// checks above looked at.
+ojson json_for_tinygltf(const ojson &root, const std::string &dir)
 {
     ojson reduced = ojson::object();
     for (const char *key : {"asset", "buffers", "bufferViews", "images"})
         if (root.contains(key)) reduced[key] = root[key];
+    auto file_uri = [&](ojson &o) {
+        if (!o.contains("uri") || !o["uri"].is_string()) return;
+        const std::string uri = o["uri"].get<std::string>();
+        if (!is_data_uri(uri)) o["uri"] = uri_of_name(resolve_uri(dir, uri), true);
+    };
     auto buffers = reduced.find("buffers");
     if (buffers != reduced.end())
-        for (auto &b : *buffers)
+        for (auto &b : *buffers) {
             if (is_meshopt_fallback(b)) b = ojson{{"byteLength", 4}, {"uri", "data:application/octet-stream;base64,AAAAAA=="}};
+            else file_uri(b);
+        }
+    auto images = reduced.find("images");
+    if (images != reduced.end())
+        for (auto &i : *images)
+            if (!i.contains("bufferView")) file_uri(i);
     return reduced;
 }
 
@@ -699,7 +755,7 @@ void load_with_tinygltf(gltf_doc *doc, const ojson &root, bool glb, const uint8_
     tinygltf::TinyGLTF loader;
     loader.SetImageLoader(load_image_as_is, nullptr);
     std::string err, warn;
-    const std::string text = json_for_tinygltf(root).dump();
+    const std::string text = json_for_tinygltf(root, doc->dir).dump();
     bool ok;
     if (glb) {
         std::vector<uint8_t> glb_bytes;
@@ -720,9 +776,9 @@ void load_with_tinygltf(gltf_doc *doc, const ojson &root, bool glb, const uint8_
             glb_bytes.insert(glb_bytes.end(), bin, bin + bin_size);
             glb_bytes.resize(total, 0);
         }
-        ok = loader.LoadBinaryFromMemory(&doc->model, &err, &warn, glb_bytes.data(), unsigned(glb_bytes.size()), doc->dir);
+        ok = loader.LoadBinaryFromMemory(&doc->model, &err, &warn, glb_bytes.data(), unsigned(glb_bytes.size()), "");
     } else {
-        ok = loader.LoadASCIIFromString(&doc->model, &err, &warn, text.data(), unsigned(text.size()), doc->dir);
+        ok = loader.LoadASCIIFromString(&doc->model, &err, &warn, text.data(), unsigned(text.size()), "");
     }
     if (!ok) {
         std::string first = err.substr(0, err.find('\n'));
@@ -1032,8 +1088,7 @@ void list_external_files(gltf_doc *doc)
 {
     auto add = [&](const std::string &uri) {
         if (is_data_uri(uri)) return;
-        const std::string decoded = tinygltf::dlib::urldecode(uri);
-        const std::string full = doc->dir == "." ? decoded : tinygltf::JoinPath(doc->dir, decoded);
+        const std::string full = resolve_uri(doc->dir, uri);
         for (const std::string &f : doc->external_files)
             if (f == full) return;
         doc->external_files.push_back(full);
@@ -1588,24 +1643,25 @@ void add_file(std::vector<gltf_out_file> &files, const std::string &name, const 
     files.push_back(f);
 }
 
-// A file name as a relative uri reference (RFC 3986): unreserved characters
-// and the sub-delimiters stay, everything else (space, %, #, ?, :, non-ASCII
-// bytes of UTF-8) is percent-encoded, so "a%20b.gltf" refers to "a%2520b.bin"
-// and a reader decodes it back to the file's name.
-std::string uri_of_name(const std::string &name)
+// The path of `file` as seen from folder `from` ("../textures/a.png"), both
+// resolved through symbolic links; `file` itself when either cannot be.
+std::string relative_path(const std::string &from, const std::string &file)
 {
-    static const char *const kHex = "0123456789ABCDEF";
+    std::unique_ptr<char, decltype(&free)> a(realpath(from.c_str(), nullptr), free), b(realpath(file.c_str(), nullptr), free);
+    if (!a || !b) return file;
+    auto parts = [](const char *path) {
+        std::vector<std::string> out;
+        std::stringstream ss(path);
+        for (std::string seg; std::getline(ss, seg, '/');)
+            if (!seg.empty()) out.push_back(seg);
+        return out;
+    };
+    const std::vector<std::string> pa = parts(a.get()), pb = parts(b.get());
+    size_t common = 0;
+    while (common < pa.size() && common + 1 < pb.size() && pa[common] == pb[common]) ++common;
     std::string out;
-    for (unsigned char ch : name) {
-        const bool alnum = (ch >= '0' && ch <= '9') || (ch >= 'A' && ch <= 'Z') || (ch >= 'a' && ch <= 'z');
-        if (alnum || (ch && strchr("-._~!$&'()*+,;=@", ch))) {
-            out.push_back(char(ch));
-        } else {
-            out.push_back('%');
-            out.push_back(kHex[ch >> 4]);
-            out.push_back(kHex[ch & 15]);
-        }
-    }
+    for (size_t i = common; i < pa.size(); ++i) out += "../";
+    for (size_t i = common; i < pb.size(); ++i) out += pb[i] + (i + 1 < pb.size() ? "/" : "");
     return out;
 }
 
@@ -1677,10 +1733,16 @@ void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<glt
     }
 
     // External images travel beside the output under their own relative uri.
+    // One outside the input's folder (--allow-external-uris) stays where it is:
+    // an absolute or file:// uri is kept, a relative one ("../tex.png") is
+    // rewritten to reach the same file from the output's folder.
     std::vector<std::pair<std::string, const std::vector<uint8_t> *>> images;
     for (auto &kv : doc->external_images) {
-        const std::string decoded = tinygltf::dlib::urldecode(doc->json["images"][kv.first]["uri"].get<std::string>());
-        images.push_back({decoded, &kv.second});
+        const std::string uri = doc->json["images"][kv.first]["uri"].get<std::string>();
+        const std::string decoded = tinygltf::dlib::urldecode(uri);
+        if (!uri_escapes(uri, decoded)) images.push_back({decoded, &kv.second});
+        else if (decoded[0] != '/' && resolve_uri(".", uri) == decoded)
+            root["images"][kv.first]["uri"] = uri_of_name(relative_path(dir_of(out_path), resolve_uri(doc->dir, uri)), true);
     }
 
     if (glb) {
