@@ -751,6 +751,15 @@ static int write_job_config(batch *b, lp_error *err)
     return rc;
 }
 
+/* A batch told to stop (SIGINT, SIGTERM, SIGHUP): the signal, 0 while none.
+ * run_jobs starts nothing more, passes SIGTERM to the running jobs (which
+ * remove their temp files) and waits for them; batch_run then removes the
+ * jobs' configuration, records what was built, and ends by the same signal. */
+static volatile sig_atomic_t g_stop;
+static const int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
+
+static void note_stop(int sig) { g_stop = sig; }
+
 /* Runs every pending job, at most jobs_at_once at a time. */
 static void run_jobs(batch *b)
 {
@@ -769,8 +778,9 @@ static void run_jobs(batch *b)
         return;
     }
     const char *current = NULL;
+    int stopping = 0;
     for (;;) {
-        while (running < (size_t)b->jobs_at_once && next < b->job_count) {
+        while (!g_stop && running < (size_t)b->jobs_at_once && next < b->job_count) {
             job *j = &b->jobs[next++];
             if (j->state != JOB_PENDING) continue;
             if (start_job(b, j) == 0) {
@@ -780,6 +790,18 @@ static void run_jobs(batch *b)
                 j->state = JOB_FAILED;
                 b->finished_builds++;
                 note_error(j, "lodpipe: the job could not start");
+            }
+        }
+        if (g_stop && !stopping) {
+            stopping = 1;
+            for (size_t i = 0; i < b->job_count; ++i) {
+                job *j = &b->jobs[i];
+                if (j->state == JOB_RUNNING) kill(j->pid, SIGTERM);
+                else if (j->state == JOB_PENDING) {
+                    j->state = JOB_FAILED;
+                    j->exit_code = 128 + (int)g_stop;
+                    note_error(j, "lodpipe: not built: the batch was stopped");
+                }
             }
         }
         if (!running) break;
@@ -797,7 +819,8 @@ static void run_jobs(batch *b)
                 owner[nfds++] = i;
             }
         }
-        if (nfds && poll(fds, nfds, b->progress ? 500 : -1) > 0) {
+        /* a timeout, so that a stop arriving just before poll is seen */
+        if (nfds && poll(fds, nfds, 500) > 0) {
             for (size_t k = 0; k < nfds; ++k) {
                 if (!fds[k].revents) continue;
                 job *j = &b->jobs[owner[k]];
@@ -1036,6 +1059,14 @@ int batch_run(const batch_options *options)
     if (b.to_build && (size_t)b.jobs_at_once > b.to_build) b.jobs_at_once = (int)b.to_build;
     b.threads_per_job = options->config->run.threads ? options->config->run.threads
                                                       : (cores / b.jobs_at_once > 1 ? cores / b.jobs_at_once : 1);
+    struct sigaction before[sizeof kStopSignals / sizeof kStopSignals[0]];
+    for (size_t k = 0; k < sizeof kStopSignals / sizeof kStopSignals[0]; ++k) {
+        struct sigaction sa;
+        memset(&sa, 0, sizeof sa);
+        sa.sa_handler = note_stop;
+        sigemptyset(&sa.sa_mask);
+        sigaction(kStopSignals[k], &sa, &before[k]);
+    }
     if (b.to_build) {
         rc = write_job_config(&b, &err);
         if (rc) {
@@ -1054,6 +1085,8 @@ int batch_run(const batch_options *options)
     else print_table(&b, &t, wall);
     fflush(stdout);
     free_batch(&b);
+    for (size_t k = 0; k < sizeof kStopSignals / sizeof kStopSignals[0]; ++k) sigaction(kStopSignals[k], &before[k], NULL);
+    if (g_stop) raise(g_stop); /* stopped: end the way the signal would have */
     if (t.failed) return LP_SOME_FAILED;
     return rc;
 }

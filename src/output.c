@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -92,6 +93,22 @@ int output_check_folder(const char *main_path, lp_error *err)
     return LP_OK;
 }
 
+/* The temp files being written, for a signal that ends the process midway
+ * (Ctrl-C, a batch stopping its jobs): its handler removes them, so that no
+ * "OUT.lodpipe-XXXXXX" is left behind, then ends the process by the same
+ * signal. */
+static char (*volatile g_temps)[4200];
+static volatile size_t g_temp_count;
+static const int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
+
+static void remove_temps_and_die(int sig)
+{
+    for (size_t i = 0; g_temps && i < g_temp_count; ++i)
+        if (g_temps[i][0]) unlink(g_temps[i]);
+    signal(sig, SIG_DFL);
+    raise(sig);
+}
+
 int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, const output_guard *guards,
                      size_t guard_count, lp_error *err)
 {
@@ -111,9 +128,19 @@ int output_write_all(const char *main_path, const gltf_out_file *files, size_t c
 
     char (*temps)[4200] = calloc(count ? count : 1, sizeof *temps);
     char (*targets)[4200] = calloc(count ? count : 1, sizeof *targets);
+    struct sigaction before[sizeof kStopSignals / sizeof kStopSignals[0]];
     if (!temps || !targets) {
         rc = lp_fail(err, LP_IO, "out of memory");
         goto cleanup;
+    }
+    g_temps = temps;
+    g_temp_count = count;
+    for (size_t k = 0; k < sizeof kStopSignals / sizeof kStopSignals[0]; ++k) {
+        struct sigaction sa;
+        memset(&sa, 0, sizeof sa);
+        sa.sa_handler = remove_temps_and_die;
+        sigemptyset(&sa.sa_mask);
+        sigaction(kStopSignals[k], &sa, &before[k]);
     }
     for (size_t i = 0; i < count && !rc; ++i) {
         if (i == 0) snprintf(targets[i], sizeof targets[i], "%s", main_path);
@@ -133,6 +160,11 @@ int output_write_all(const char *main_path, const gltf_out_file *files, size_t c
 cleanup:
     for (size_t i = 0; temps && i < count; ++i)
         if (temps[i][0]) unlink(temps[i]);
+    if (g_temps) {
+        for (size_t k = 0; k < sizeof kStopSignals / sizeof kStopSignals[0]; ++k) sigaction(kStopSignals[k], &before[k], NULL);
+        g_temps = NULL;
+        g_temp_count = 0;
+    }
     free(temps);
     free(targets);
     return rc;

@@ -12,9 +12,9 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
-import { spawnSync } from 'node:child_process';
+import { spawn, spawnSync } from 'node:child_process';
 import {
-  corpusPath, describeRun, oneLineErrorProblems, skipWithoutBinary, repoRoot, runHealthProblems, runLodpipe,
+  corpusPath, describeRun, lodpipeBin, oneLineErrorProblems, skipWithoutBinary, repoRoot, runHealthProblems, runLodpipe,
   sharedRoot, tempDir,
 } from './lib/gltf.mjs';
 
@@ -308,4 +308,32 @@ test('batch and depfile usage errors exit 1 with one line', { skip }, (t) => {
   const missing = runLodpipe(['batch', path.join(dir, 'nothing'), '-o', path.join(dir, 'o2')]);
   assert.equal(missing.status, 4, describeRun(missing));
   assert.ok(!fs.existsSync(path.join(dir, 'o2')), 'no output folder for a missing source');
+});
+
+// Stopping a batch (kill -TERM, as a CI job's timeout does): the running job is stopped too (no process left
+// behind writing into OUT_DIR), the jobs' temporary configuration and any temp file are removed, what was
+// built is recorded (a rerun finds it cached), and the batch ends by the signal.
+test('a batch stopped by SIGTERM stops its job, leaves no temp files, keeps what was built', { skip }, async (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src');
+  const out = path.join(dir, 'out');
+  fs.mkdirSync(src);
+  // a small file first (built, then the stop), a large one second (stopped while it runs)
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'a.glb'));
+  fs.copyFileSync(corpusPath('scans/bunny.glb'), path.join(src, 'b.glb'));
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'c.glb'));
+  const child = spawn(lodpipeBin, ['batch', src, '-o', out, '-j', '1'], { stdio: 'ignore' });
+  const exited = new Promise((resolve) => child.on('exit', (code, signal) => resolve({ code, signal })));
+  const deadline = Date.now() + 300000;
+  while (!fs.existsSync(path.join(out, 'a.glb')) && Date.now() < deadline) await new Promise((r) => setTimeout(r, 100));
+  assert.ok(fs.existsSync(path.join(out, 'a.glb')), 'the first file was built');
+  child.kill('SIGTERM');
+  const end = await exited;
+  assert.equal(end.signal, 'SIGTERM', `the batch ends by the signal (exit ${end.code})`);
+  const jobs = spawnSync('pgrep', ['-f', src], { encoding: 'utf8' });
+  assert.equal(jobs.stdout.trim(), '', 'no job process left');
+  const left = fs.readdirSync(out).filter((f) => f.startsWith('.lodpipe-batch-') || /\.lodpipe-[A-Za-z0-9]{6}$/.test(f));
+  assert.deepEqual(left, [], 'no temporary file left');
+  const again = batch(src, out);
+  assert.ok(again.byStatus.cached.includes('a.glb'), `a.glb is cached on the next run: ${JSON.stringify(again.byStatus)}`);
 });
