@@ -876,10 +876,16 @@ static int cmd_check(const cli *c)
             const double allowed = recorded + lod0_error;
             int ok = have && measured >= 0 && measured <= allowed * (1 + 1e-9) + 1e-12 * base->diagonal;
             if (have && !ok) failed = 1;
-            char rec[32] = "-";
+            char rec[32] = "-", got[32] = "-";
             if (have) snprintf(rec, sizeof rec, "%.8g", recorded);
-            printf("%-6u %-6u %-6lld %-10u %-14s %-14.8g %s\n", n, k + 1, (long long)lod->mesh, b.triangle_count, rec,
-                   measured, !have ? "not recorded" : (ok ? "yes" : "NO: exceeds the recorded error"));
+            if (measured >= 0) snprintf(got, sizeof got, "%.8g", measured);
+            /* no triangles on one side: nothing within any distance of the other */
+            const char *verdict = !have ? "not recorded"
+                                  : ok  ? "yes"
+                                  : measured < 0 ? (a.triangle_count ? "NO: the level has no triangles" : "NO: LOD0 has no triangles")
+                                                 : "NO: exceeds the recorded error";
+            printf("%-6u %-6u %-6lld %-10u %-14s %-14s %s\n", n, k + 1, (long long)lod->mesh, b.triangle_count, rec, got,
+                   verdict);
         }
         bvh_free(&a_tree);
         free(bp);

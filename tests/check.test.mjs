@@ -68,3 +68,32 @@ test('check: a file without LOD chains says so and exits 0; a bad file is exit 2
   const broken = runLodpipe(['check', path.join(repoRoot, '..', 'shared', 'assets', 'invalid', 'truncated.glb')]);
   assert.equal(broken.status, 2, describeRun(broken));
 });
+
+// Hand-edited chains: MSFT_lod.ids that is not an array is a malformed file (exit 2, as a bad id is), not
+// "no LOD chains"; a level whose only primitive has no triangles cannot be within any distance of LOD0, and
+// says so instead of printing a measured -1.
+test('check: MSFT_lod.ids not an array -> exit 2; a level without triangles -> exit 3, named', { skip }, (t) => {
+  const dir = tempDir(t);
+  const out = path.join(dir, 'scene.glb');
+  const made = runLodpipe([scene, '-o', out, '--quiet']);
+  assert.equal(made.status, 0, describeRun(made));
+  const bytes = fs.readFileSync(out);
+  const edit = (name, change) => {
+    const f = path.join(dir, name);
+    fs.writeFileSync(f, rewriteGlb(bytes, change));
+    return runLodpipe(['check', f]);
+  };
+  const chained = (json) => json.nodes.findIndex((node) => node.extensions?.MSFT_lod?.ids?.length);
+  const ids = edit('ids.glb', (json) => { json.nodes[chained(json)].extensions.MSFT_lod.ids = 'x'; });
+  assert.equal(ids.status, 2, describeRun(ids));
+  assert.deepEqual(oneLineErrorProblems(ids.stderr), [], describeRun(ids));
+  assert.match(ids.stderr, /MSFT_lod\.ids must be an array/);
+  let victim = -1;
+  const points = edit('points.glb', (json) => {
+    victim = chained(json);
+    const lod = json.nodes[json.nodes[victim].extensions.MSFT_lod.ids[0]];
+    for (const p of json.meshes[lod.mesh].primitives) p.mode = 0;
+  });
+  assert.equal(points.status, 3, describeRun(points));
+  assert.match(points.stdout, new RegExp(`^${victim}\\s+1\\s+\\d+\\s+0\\s+\\S+\\s+-\\s+NO: the level has no triangles`, 'm'));
+});

@@ -1067,7 +1067,9 @@ void build_records(gltf_doc *doc)
         if (ext != nodes[n].end() && ext->contains("MSFT_lod")) {
             const ojson &lod = (*ext)["MSFT_lod"];
             auto ids = lod.find("ids");
-            if (ids != lod.end() && ids->is_array())
+            if (ids != lod.end() && !ids->is_array())
+                fail(GLTF_INVALID, at("nodes", n) + ".extensions.MSFT_lod.ids must be an array of node indices");
+            if (ids != lod.end())
                 for (auto &id : *ids) doc->node_lods[n].push_back(is_uint(id) ? int64_t(std::min<uint64_t>(id.get<uint64_t>(), uint64_t(1) << 62)) : int64_t(-2));
         }
     }
