@@ -698,6 +698,10 @@ static int cmd_lod(const cli *c)
     jsonw_raw(&j, ",\"meshes\":[");
     int first = 1;
     lp_error err = {0, ""};
+    uint32_t scene_meshes = 0;
+    for (uint32_t m = 0; m < s.mesh_count; ++m) scene_meshes += s.meshes[m].instance_count && s.meshes[m].triangle_count;
+    if (!scene_meshes && !c->quiet)
+        fprintf(stderr, "lodpipe: %s: warning: the default scene uses no mesh with triangles; nothing to simplify\n", in);
     for (uint32_t m = 0; m < s.mesh_count && !rc; ++m) {
         const scene_mesh *mesh = &s.meshes[m];
         if (!mesh->instance_count || !mesh->triangle_count) continue;
@@ -1046,6 +1050,14 @@ int main(int argc, char **argv)
         return cmd_batch(&c);
     }
     if (c.output) { /* the main job: lodpipe IN -o OUT */
+        static const char *const kCommands[] = {"inspect", "convert", "check", "simplify"};
+        for (size_t k = 0; k < sizeof kCommands / sizeof kCommands[0]; ++k)
+            if (strcmp(c.command, kCommands[k]) == 0) {
+                char msg[160];
+                snprintf(msg, sizeof msg, "-o belongs to the main job (lodpipe IN -o OUT) and batch, not to %s",
+                         kCommands[k]);
+                return usage_error(msg);
+            }
         if (c.operand_count != 0) return usage_error("the main job takes one input: lodpipe IN -o OUT");
         c.operands[0] = c.command;
         return cmd_lod(&c);

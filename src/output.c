@@ -87,8 +87,8 @@ int output_check_folder(const char *main_path, lp_error *err)
     char base[4096];
     folder_of(main_path, base, sizeof base);
     struct stat st;
-    if (stat(base, &st) != 0 || !S_ISDIR(st.st_mode))
-        return lp_fail(err, LP_IO, "output folder %s does not exist", base);
+    if (stat(base, &st) != 0) return lp_fail(err, LP_IO, "output folder %s does not exist", base);
+    if (!S_ISDIR(st.st_mode)) return lp_fail(err, LP_IO, "output folder %s is not a folder", base);
     if (access(base, W_OK) != 0) return lp_fail(err, LP_IO, "output folder %s is not writable", base);
     return LP_OK;
 }

@@ -463,6 +463,19 @@ test('EXT_mesh_gpu_instancing: LOD nodes instanced like their node, distances fo
   });
 });
 
+// A file whose default scene has no triangle mesh is written as it is, but an artist or a build log should
+// learn that nothing was simplified rather than get silence.
+test('a default scene without triangle meshes: written, with a warning that nothing was simplified', { skip: skipRuns }, (t) => {
+  const dir = tempDir(t);
+  const input = path.join(dir, 'empty.gltf');
+  fs.writeFileSync(input, JSON.stringify({ asset: { version: '2.0' }, scenes: [{ nodes: [0] }], nodes: [{ name: 'empty' }] }));
+  const r = runLodpipe([input, '-o', path.join(dir, 'out.glb')]);
+  assert.equal(r.status, 0, describeRun(r));
+  assert.match(r.stderr, /warning: the default scene uses no mesh with triangles; nothing to simplify/);
+  const quiet = runLodpipe([input, '-o', path.join(dir, 'out2.glb'), '-q']);
+  assert.equal(quiet.stderr, '', 'quiet');
+});
+
 // A level with placed vertices has a POSITION of its own but shares its other accessors with LOD0, and
 // uses a prefix of them by design: reading lodpipe's output back must not warn about unused vertices.
 test('lodpipe\'s output with placed levels reads back without unused-vertex warnings', { skip: skipRuns }, () => {
