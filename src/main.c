@@ -952,6 +952,19 @@ static int cmd_batch(const cli *c)
     return batch_run(&opt);
 }
 
+/* A path option given once: a second -o, --config or --depfile is more
+ * likely a mistake than an override (which of two outputs was meant?). */
+static int set_once(const char **slot, const char *flag, const char *value)
+{
+    if (*slot) {
+        char msg[300];
+        snprintf(msg, sizeof msg, "%s given twice (%.100s, %.100s)", flag, *slot, value);
+        return usage_error(msg);
+    }
+    *slot = value;
+    return LP_OK;
+}
+
 /* Reads the command line: the command, its operands, the tool's own flags,
  * and the configuration (defaults, then --config FILE, then config flags in
  * the order given). */
@@ -977,9 +990,9 @@ static int parse(int argc, char **argv, cli *c)
             config_args[config_argc++] = a;
             config_args[config_argc++] = kind == 1 ? argv[++i] : "true";
         } else if (strcmp(a, "-o") == 0) {
-            c->output = argv[++i];
+            rc = set_once(&c->output, a, argv[++i]);
         } else if (strcmp(a, "--config") == 0) {
-            c->config_path = argv[++i];
+            rc = set_once(&c->config_path, a, argv[++i]);
         } else if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             usage(stdout);
             free(config_args);
@@ -997,7 +1010,7 @@ static int parse(int argc, char **argv, cli *c)
         } else if (strcmp(a, "--allow-external-uris") == 0) {
             c->allow_external_uris = 1;
         } else if (strcmp(a, "--depfile") == 0) {
-            c->depfile = argv[++i];
+            rc = set_once(&c->depfile, a, argv[++i]);
         } else if (strcmp(a, "-j") == 0 || strcmp(a, "--shard") == 0) {
             rc = parse_batch_value(c, a, argv[++i]);
         } else if (a[0] == '-' && a[1]) {

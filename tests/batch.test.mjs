@@ -286,6 +286,10 @@ test('batch and depfile usage errors exit 1 with one line', { skip }, (t) => {
     ['batch', dir, '-o', path.join(dir, 'o'), '--depfile', 'x.d'],
     [corpusPath('scans/suzanne.glb'), '-o', path.join(dir, 'x.glb'), '-j', '2'],
     ['inspect', corpusPath('scans/suzanne.glb'), '--shard', '1/2'],
+    [corpusPath('scans/suzanne.glb'), '-o', path.join(dir, 'a.glb'), '-o', path.join(dir, 'b.glb')],
+    [corpusPath('scans/suzanne.glb'), '-o', path.join(dir, 'a.glb'), '--depfile', 'a.d', '--depfile', 'b.d'],
+    ['batch', dir, '-o', path.join(dir, 'o'), '--config', 'a.toml', '--config', 'b.toml'],
+    ['simplify', corpusPath('scans/suzanne.glb'), dir, '-o', path.join(dir, 'a.glb')],
   ];
   for (const args of cases) {
     const r = runLodpipe(args);
