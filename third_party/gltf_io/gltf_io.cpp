@@ -566,7 +566,9 @@ struct gltf_doc {
     // gltf_accessor_refs' counts for every accessor, computed in one walk of
     // the document when asked after a change: a walk per call made a scene of
     // N meshes cost N^2 (2,000 small meshes: minutes). Every C API function
-    // that edits `json` calls json_changed() first.
+    // that edits `json` either keeps them right (edit_keeps_counts, a
+    // primitive's reference set through set_reference) or calls
+    // json_changed() first.
     mutable std::vector<size_t> accessor_ref_counts;
     mutable bool accessor_ref_counts_valid = false;
     void json_changed() { accessor_ref_counts_valid = false; }
@@ -879,7 +881,7 @@ void resolve_views(gltf_doc *doc)
 
 size_t add_owned_view(gltf_doc *doc, std::vector<uint8_t> bytes, int target)
 {
-    doc->json_changed();
+    // a new bufferView: no accessor reference changes (edit_keeps_counts)
     ojson view = ojson::object();
     view["buffer"] = 0;
     view["byteLength"] = bytes.size();
@@ -1381,6 +1383,78 @@ extern "C" const char *gltf_extension_name(const gltf_doc *doc, int required, si
 
 // ---- C API: editing ----------------------------------------------------------------
 
+// The tokens of a JSON pointer; {"~"} for one with an escape, which no rule
+// below matches (lodpipe builds its pointers from plain names).
+static std::vector<std::string> pointer_tokens(const std::string &pointer)
+{
+    std::vector<std::string> t;
+    if (pointer.find('~') != std::string::npos) return {"~"};
+    size_t at = 1;
+    while (at <= pointer.size()) {
+        const size_t slash = pointer.find('/', at);
+        const size_t end = slash == std::string::npos ? pointer.size() : slash;
+        t.push_back(pointer.substr(at, end - at));
+        at = end + 1;
+    }
+    return t;
+}
+
+// An edit at these tokens after which every accessor reference count stands
+// (count_accessor_refs counts nothing there): inside one accessor or
+// bufferView (their own keys: bufferView, count, min, ...), a new one
+// appended ("-": nothing refers to it yet, and a count past the cached ones
+// is 0), the removal of the last accessor (no renumbering; lodpipe removes so
+// only a scratch accessor nothing refers to), anything inside a
+// KHR_draco_mesh_compression extension (its "attributes" are stream ids, not
+// counted), and a primitive's mode.
+static bool edit_keeps_counts(const gltf_doc *doc, const std::vector<std::string> &t, bool removal)
+{
+    if (t.size() >= 2 && (t[0] == "accessors" || t[0] == "bufferViews")) {
+        if (t.size() >= 3 || t[1] == "-") return true;
+        const size_t last = array_of(doc->json, "accessors").size();
+        if (removal && t[0] == "accessors" && last && t[1] == std::to_string(last - 1)) return true;
+    }
+    for (size_t i = 0; i + 1 < t.size(); ++i)
+        if (t[i] == "extensions" && t[i + 1] == kDraco) return true;
+    return t.size() == 5 && t[0] == "meshes" && t[2] == "primitives" && t[4] == "mode";
+}
+
+// A primitive's accessor reference: .../indices, .../attributes/NAME or
+// .../targets/T/NAME of /meshes/M/primitives/P.
+static bool primitive_reference(const std::vector<std::string> &t)
+{
+    if (t.size() < 5 || t[0] != "meshes" || t[2] != "primitives") return false;
+    return (t.size() == 5 && t[4] == "indices") || (t.size() == 6 && t[4] == "attributes") ||
+           (t.size() == 7 && t[4] == "targets");
+}
+
+// Before an edit at `pointer` (its tokens t; removal: the value there goes):
+// the counts are kept right, or dropped to be made again. For a primitive's
+// reference the old value's count goes down here, and after_reference_set
+// raises the new one's.
+static void before_edit(gltf_doc *doc, const char *pointer, const std::vector<std::string> &t, bool removal)
+{
+    if (!doc->accessor_ref_counts_valid || edit_keeps_counts(doc, t, removal)) return;
+    if (!primitive_reference(t)) return doc->json_changed();
+    const ojson::json_pointer ptr(pointer);
+    if (!doc->json.contains(ptr)) return;
+    const ojson &old = doc->json[ptr];
+    if (!is_uint(old) || old.get<uint64_t>() >= doc->accessor_ref_counts.size() ||
+        doc->accessor_ref_counts[size_t(old.get<uint64_t>())] == 0)
+        return doc->json_changed();
+    doc->accessor_ref_counts[size_t(old.get<uint64_t>())]--;
+}
+
+// After a primitive's reference was set to `value`: its count goes up.
+static void after_reference_set(gltf_doc *doc, const std::vector<std::string> &t, const ojson &value)
+{
+    if (!doc->accessor_ref_counts_valid || !primitive_reference(t)) return;
+    if (!is_uint(value) || value.get<uint64_t>() > (uint64_t(1) << 40)) return doc->json_changed();
+    const size_t a = size_t(value.get<uint64_t>());
+    if (a >= doc->accessor_ref_counts.size()) doc->accessor_ref_counts.resize(a + 1, 0);
+    doc->accessor_ref_counts[a]++;
+}
+
 extern "C" int64_t gltf_add_view(gltf_doc *doc, const void *bytes, size_t size, uint64_t byte_stride, int target)
 {
     return gltf_add_view_in(doc, bytes, size, byte_stride, target, 0);
@@ -1389,7 +1463,6 @@ extern "C" int64_t gltf_add_view(gltf_doc *doc, const void *bytes, size_t size, 
 extern "C" int64_t gltf_add_view_in(gltf_doc *doc, const void *bytes, size_t size, uint64_t byte_stride, int target,
                                     int slot)
 {
-    doc->json_changed();
     try {
         const uint8_t *b = static_cast<const uint8_t *>(bytes);
         size_t v = add_owned_view(doc, std::vector<uint8_t>(b, b + size), target);
@@ -1412,7 +1485,7 @@ extern "C" void gltf_sync_mesh_records(gltf_doc *doc)
 
 extern "C" int64_t gltf_append_json(gltf_doc *doc, const char *array, const char *json)
 {
-    doc->json_changed();
+    before_edit(doc, "", {array, "-"}, false);
     try {
         ojson value = ojson::parse(json);
         if (!value.is_object()) return -1;
@@ -1428,19 +1501,24 @@ extern "C" int64_t gltf_append_json(gltf_doc *doc, const char *array, const char
 
 extern "C" int gltf_set_json(gltf_doc *doc, const char *pointer, const char *json)
 {
-    doc->json_changed();
     try {
-        doc->json[ojson::json_pointer(pointer)] = ojson::parse(json);
+        ojson value = ojson::parse(json);
+        const std::vector<std::string> t = pointer_tokens(pointer);
+        before_edit(doc, pointer, t, false);
+        ojson &slot = doc->json[ojson::json_pointer(pointer)];
+        slot = std::move(value);
+        after_reference_set(doc, t, slot);
         return 0;
     } catch (...) {
+        doc->json_changed();
         return -1;
     }
 }
 
 extern "C" int gltf_remove_json(gltf_doc *doc, const char *pointer)
 {
-    doc->json_changed();
     try {
+        before_edit(doc, pointer, pointer_tokens(pointer), true);
         ojson::json_pointer ptr(pointer);
         if (ptr.empty() || !doc->json.contains(ptr)) return -1;
         ojson &parent = doc->json[ptr.parent_pointer()];
@@ -1450,6 +1528,7 @@ extern "C" int gltf_remove_json(gltf_doc *doc, const char *pointer)
         else return -1;
         return 0;
     } catch (...) {
+        doc->json_changed();
         return -1;
     }
 }
@@ -1483,14 +1562,18 @@ extern "C" int gltf_remove_jsonf(gltf_doc *doc, const char *pointer_format, ...)
 
 extern "C" int gltf_copy_json(gltf_doc *doc, const char *from, const char *to)
 {
-    doc->json_changed();
     try {
         ojson::json_pointer src(from);
         if (!doc->json.contains(src)) return -1;
         ojson value = doc->json[src];
-        doc->json[ojson::json_pointer(to)] = std::move(value);
+        const std::vector<std::string> t = pointer_tokens(to);
+        before_edit(doc, to, t, false);
+        ojson &slot = doc->json[ojson::json_pointer(to)];
+        slot = std::move(value);
+        after_reference_set(doc, t, slot);
         return 0;
     } catch (...) {
+        doc->json_changed();
         return -1;
     }
 }
@@ -1557,6 +1640,13 @@ extern "C" size_t gltf_accessor_refs(const gltf_doc *doc, size_t index)
         doc->accessor_ref_counts_valid = true;
     }
     return index < doc->accessor_ref_counts.size() ? doc->accessor_ref_counts[index] : 0;
+}
+
+extern "C" size_t gltf_accessor_refs_walk(const gltf_doc *doc, size_t index)
+{
+    std::vector<size_t> counts(array_of(doc->json, "accessors").size(), 0);
+    count_accessor_refs(doc->json, counts);
+    return index < counts.size() ? counts[index] : 0;
 }
 
 extern "C" size_t gltf_accessor_refs_at_load(const gltf_doc *doc, size_t index)

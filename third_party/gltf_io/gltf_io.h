@@ -195,6 +195,9 @@ size_t gltf_accessor_refs(const gltf_doc *doc, size_t index);
  * since): no walk of the document per call, for a question about the input
  * asked once per primitive. */
 size_t gltf_accessor_refs_at_load(const gltf_doc *doc, size_t index);
+/* The count gltf_accessor_refs gives, made afresh by a walk of the document
+ * as it is now (no cache): for tests of the cache's upkeep. */
+size_t gltf_accessor_refs_walk(const gltf_doc *doc, size_t index);
 
 /* Adds name to extensionsUsed (and to extensionsRequired when required). */
 void gltf_use_extension(gltf_doc *doc, const char *name, int required);
