@@ -47,6 +47,7 @@
 #include "output.h"
 #include "sha256.h"
 #include "status.h"
+#include "stopsig.h"
 #include "version.h"
 
 extern char **environ;
@@ -756,7 +757,6 @@ static int write_job_config(batch *b, lp_error *err)
  * remove their temp files) and waits for them; batch_run then removes the
  * jobs' configuration, records what was built, and ends by the same signal. */
 static volatile sig_atomic_t g_stop;
-static const int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
 
 static void note_stop(int sig) { g_stop = sig; }
 
@@ -1059,14 +1059,8 @@ int batch_run(const batch_options *options)
     if (b.to_build && (size_t)b.jobs_at_once > b.to_build) b.jobs_at_once = (int)b.to_build;
     b.threads_per_job = options->config->run.threads ? options->config->run.threads
                                                       : (cores / b.jobs_at_once > 1 ? cores / b.jobs_at_once : 1);
-    struct sigaction before[sizeof kStopSignals / sizeof kStopSignals[0]];
-    for (size_t k = 0; k < sizeof kStopSignals / sizeof kStopSignals[0]; ++k) {
-        struct sigaction sa;
-        memset(&sa, 0, sizeof sa);
-        sa.sa_handler = note_stop;
-        sigemptyset(&sa.sa_mask);
-        sigaction(kStopSignals[k], &sa, &before[k]);
-    }
+    stopsig_saved before;
+    stopsig_catch(note_stop, &before);
     if (b.to_build) {
         rc = write_job_config(&b, &err);
         if (rc) {
@@ -1085,7 +1079,7 @@ int batch_run(const batch_options *options)
     else print_table(&b, &t, wall);
     fflush(stdout);
     free_batch(&b);
-    for (size_t k = 0; k < sizeof kStopSignals / sizeof kStopSignals[0]; ++k) sigaction(kStopSignals[k], &before[k], NULL);
+    stopsig_restore(&before);
     if (g_stop) raise(g_stop); /* stopped: end the way the signal would have */
     if (t.failed) return LP_SOME_FAILED;
     return rc;

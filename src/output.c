@@ -1,5 +1,6 @@
 /* output.c - see output.h. */
 #include "output.h"
+#include "stopsig.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -99,7 +100,6 @@ int output_check_folder(const char *main_path, lp_error *err)
  * signal. */
 static char (*volatile g_temps)[4200];
 static volatile size_t g_temp_count;
-static const int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
 
 static void remove_temps_and_die(int sig)
 {
@@ -128,20 +128,14 @@ int output_write_all(const char *main_path, const gltf_out_file *files, size_t c
 
     char (*temps)[4200] = calloc(count ? count : 1, sizeof *temps);
     char (*targets)[4200] = calloc(count ? count : 1, sizeof *targets);
-    struct sigaction before[sizeof kStopSignals / sizeof kStopSignals[0]];
+    stopsig_saved before;
     if (!temps || !targets) {
         rc = lp_fail(err, LP_IO, "out of memory");
         goto cleanup;
     }
     g_temps = temps;
     g_temp_count = count;
-    for (size_t k = 0; k < sizeof kStopSignals / sizeof kStopSignals[0]; ++k) {
-        struct sigaction sa;
-        memset(&sa, 0, sizeof sa);
-        sa.sa_handler = remove_temps_and_die;
-        sigemptyset(&sa.sa_mask);
-        sigaction(kStopSignals[k], &sa, &before[k]);
-    }
+    stopsig_catch(remove_temps_and_die, &before);
     for (size_t i = 0; i < count && !rc; ++i) {
         if (i == 0) snprintf(targets[i], sizeof targets[i], "%s", main_path);
         else snprintf(targets[i], sizeof targets[i], "%s/%s", base, files[i].name);
@@ -161,7 +155,7 @@ cleanup:
     for (size_t i = 0; temps && i < count; ++i)
         if (temps[i][0]) unlink(temps[i]);
     if (g_temps) {
-        for (size_t k = 0; k < sizeof kStopSignals / sizeof kStopSignals[0]; ++k) sigaction(kStopSignals[k], &before[k], NULL);
+        stopsig_restore(&before);
         g_temps = NULL;
         g_temp_count = 0;
     }

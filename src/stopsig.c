@@ -1,0 +1,22 @@
+/* stopsig.c - see stopsig.h. */
+#include "stopsig.h"
+
+#include <string.h>
+
+static const int kStopSignals[STOPSIG_COUNT] = {SIGINT, SIGTERM, SIGHUP};
+
+void stopsig_catch(void (*handler)(int), stopsig_saved *saved)
+{
+    for (int k = 0; k < STOPSIG_COUNT; ++k) {
+        struct sigaction sa;
+        memset(&sa, 0, sizeof sa);
+        sa.sa_handler = handler;
+        sigemptyset(&sa.sa_mask);
+        sigaction(kStopSignals[k], &sa, &saved->before[k]);
+    }
+}
+
+void stopsig_restore(const stopsig_saved *saved)
+{
+    for (int k = 0; k < STOPSIG_COUNT; ++k) sigaction(kStopSignals[k], &saved->before[k], NULL);
+}
