@@ -353,7 +353,7 @@ for (const { input, extra, label } of draco_runs) {
     await t.test('the chains are the summary\'s: every instance of a mesh with levels has them; 2,500 triangles or more give a level', () => {
       const problems = [];
       for (const mesh of summary.meshes) {
-        // summary: nodes = the number of scene nodes that instance the mesh
+        // summary: nodes = the number of nodes that carry the mesh's chain (every node that uses it)
         const mine = chains.filter((x) => x.meta.levels[0].mesh === mesh.mesh);
         if (mesh.levels.length && mine.length !== mesh.nodes) problems.push(`mesh ${mesh.mesh}: ${mesh.levels.length} level(s) in the summary, ${mine.length} chain(s) in the file for ${mesh.nodes} instance(s)`);
         if (!mesh.levels.length && mine.length) problems.push(`mesh ${mesh.mesh}: no level in the summary, ${mine.length} chain(s) in the file`);
