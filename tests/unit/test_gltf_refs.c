@@ -62,6 +62,8 @@ static void test_counts_across_edits(void)
     check_counts(doc, "the Draco extension set");
     CHECK(gltf_remove_json(doc, "/meshes/0/primitives/0/mode") == 0, "mode removed");
     check_counts(doc, "mode removed");
+    gltf_use_extension(doc, "KHR_draco_mesh_compression", 1);
+    check_counts(doc, "an extension named used and required");
     /* the chain writer's appends */
     CHECK(gltf_append_json(doc, "meshes", "{\"primitives\":[{\"attributes\":{\"POSITION\":2},\"indices\":0}]}") == 1, "a mesh");
     check_counts(doc, "a mesh appended");

@@ -1406,9 +1406,10 @@ static std::vector<std::string> pointer_tokens(const std::string &pointer)
 // is 0), the removal of the last accessor (no renumbering; lodpipe removes so
 // only a scratch accessor nothing refers to), anything inside a
 // KHR_draco_mesh_compression extension (its "attributes" are stream ids, not
-// counted), and a primitive's mode.
+// counted), a primitive's mode, and the lists of extension names.
 static bool edit_keeps_counts(const gltf_doc *doc, const std::vector<std::string> &t, bool removal)
 {
+    if (!t.empty() && (t[0] == "extensionsUsed" || t[0] == "extensionsRequired")) return true;
     if (t.size() >= 2 && (t[0] == "accessors" || t[0] == "bufferViews")) {
         if (t.size() >= 3 || t[1] == "-") return true;
         const size_t last = array_of(doc->json, "accessors").size();
@@ -1656,7 +1657,7 @@ extern "C" size_t gltf_accessor_refs_at_load(const gltf_doc *doc, size_t index)
 
 extern "C" void gltf_use_extension(gltf_doc *doc, const char *name, int required)
 {
-    doc->json_changed();
+    before_edit(doc, "", {"extensionsUsed", "-"}, false);
     for (const char *list : {"extensionsUsed", "extensionsRequired"}) {
         if (list[10] == 'R' && !required) continue;
         ojson &arr = doc->json[list];
