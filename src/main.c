@@ -1062,34 +1062,33 @@ int main(int argc, char **argv)
         if (c.operand_count != 1 || !c.output) return usage_error("batch needs SRC_DIR and -o OUT_DIR");
         return cmd_batch(&c);
     }
+    /* the commands that take operands only (the main job and batch take -o) */
+    static const struct {
+        const char *name;
+        int operands;
+        const char *usage;
+        int (*run)(const cli *);
+    } kCommands[] = {
+        {"inspect", 1, "inspect needs exactly one FILE", cmd_inspect},
+        {"convert", 2, "convert needs IN and OUT", cmd_convert},
+        {"check", 1, "check needs exactly one FILE", cmd_check},
+        {"simplify", 2, "simplify needs IN and OUTDIR", cmd_simplify},
+    };
+    for (size_t k = 0; k < sizeof kCommands / sizeof kCommands[0]; ++k) {
+        if (strcmp(c.command, kCommands[k].name) != 0) continue;
+        if (c.output) {
+            char msg[160];
+            snprintf(msg, sizeof msg, "-o belongs to the main job (lodpipe IN -o OUT) and batch, not to %s",
+                     kCommands[k].name);
+            return usage_error(msg);
+        }
+        if (c.operand_count != kCommands[k].operands) return usage_error(kCommands[k].usage);
+        return kCommands[k].run(&c);
+    }
     if (c.output) { /* the main job: lodpipe IN -o OUT */
-        static const char *const kCommands[] = {"inspect", "convert", "check", "simplify"};
-        for (size_t k = 0; k < sizeof kCommands / sizeof kCommands[0]; ++k)
-            if (strcmp(c.command, kCommands[k]) == 0) {
-                char msg[160];
-                snprintf(msg, sizeof msg, "-o belongs to the main job (lodpipe IN -o OUT) and batch, not to %s",
-                         kCommands[k]);
-                return usage_error(msg);
-            }
         if (c.operand_count != 0) return usage_error("the main job takes one input: lodpipe IN -o OUT");
         c.operands[0] = c.command;
         return cmd_lod(&c);
-    }
-    if (strcmp(c.command, "inspect") == 0) {
-        if (c.operand_count != 1) return usage_error("inspect needs exactly one FILE");
-        return cmd_inspect(&c);
-    }
-    if (strcmp(c.command, "convert") == 0) {
-        if (c.operand_count != 2) return usage_error("convert needs IN and OUT");
-        return cmd_convert(&c);
-    }
-    if (strcmp(c.command, "check") == 0) {
-        if (c.operand_count != 1) return usage_error("check needs exactly one FILE");
-        return cmd_check(&c);
-    }
-    if (strcmp(c.command, "simplify") == 0) {
-        if (c.operand_count != 2) return usage_error("simplify needs IN and OUTDIR");
-        return cmd_simplify(&c);
     }
     char msg[300];
     snprintf(msg, sizeof msg, "unknown command %.200s", c.command);

@@ -116,15 +116,6 @@ int output_write_all(const char *main_path, const gltf_out_file *files, size_t c
     folder_of(main_path, base, sizeof base);
     int rc = output_check_folder(main_path, err);
     if (rc) return rc;
-    for (size_t i = 0; i < count; ++i) {
-        char target[4200];
-        if (i == 0) snprintf(target, sizeof target, "%s", main_path);
-        else snprintf(target, sizeof target, "%s/%s", base, files[i].name);
-        for (size_t g = 0; g < guard_count; ++g)
-            if (output_same_path(target, guards[g].path) && !same_bytes(target, files[i].bytes, files[i].size))
-                return lp_fail(err, LP_USAGE, "%s (written with the output) is %s; choose another output name", target,
-                               guards[g].why);
-    }
 
     char (*temps)[4200] = calloc(count ? count : 1, sizeof *temps);
     char (*targets)[4200] = calloc(count ? count : 1, sizeof *targets);
@@ -133,12 +124,19 @@ int output_write_all(const char *main_path, const gltf_out_file *files, size_t c
         rc = lp_fail(err, LP_IO, "out of memory");
         goto cleanup;
     }
+    for (size_t i = 0; i < count && !rc; ++i) {
+        if (i == 0) snprintf(targets[i], sizeof targets[i], "%s", main_path);
+        else snprintf(targets[i], sizeof targets[i], "%s/%s", base, files[i].name);
+        for (size_t g = 0; g < guard_count && !rc; ++g)
+            if (output_same_path(targets[i], guards[g].path) && !same_bytes(targets[i], files[i].bytes, files[i].size))
+                rc = lp_fail(err, LP_USAGE, "%s (written with the output) is %s; choose another output name", targets[i],
+                             guards[g].why);
+    }
+    if (rc) goto cleanup; /* before anything is written */
     g_temps = temps;
     g_temp_count = count;
     stopsig_catch(remove_temps_and_die, &before);
     for (size_t i = 0; i < count && !rc; ++i) {
-        if (i == 0) snprintf(targets[i], sizeof targets[i], "%s", main_path);
-        else snprintf(targets[i], sizeof targets[i], "%s/%s", base, files[i].name);
         if (i > 0 && same_bytes(targets[i], files[i].bytes, files[i].size)) continue;
         if (i > 0) rc = make_parents(base, files[i].name, err);
         if (!rc) rc = write_temp(targets[i], files[i].bytes, files[i].size, temps[i], sizeof temps[i], err);

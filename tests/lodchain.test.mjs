@@ -409,6 +409,19 @@ for (const rel of ['scans/bunny.glb', 'animated/CesiumMan.glb', 'compressed/Dens
   });
 }
 
+/**
+ * The main job on `input` (a .glb output, options {tag}), which must succeed (`what` names the run in the
+ * message), then the chain checker on it in every aspect but soundness: the variants these tests make are
+ * about the file's structure, and the CGAL proof is left to the corpus tests. Returns the run.
+ */
+async function checkedStructure(t, input, label, what, options = {}) {
+  const run = mainJob(input, '.glb', [], options);
+  assert.deepEqual(runFatal(run), [], `${what} failed\n${describeRun(run.r)}`);
+  const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary, hausdorff: false });
+  await assertAspects(t, res, label, CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  return run;
+}
+
 // EXT_mesh_gpu_instancing (no corpus asset has it): cow.glb made into five instances, one of them 4x
 // larger. Every LOD node must be instanced like the node (else a client shows one instance at the coarse
 // levels), and the switching distances follow the largest instance (4x the plain cow's).
@@ -446,10 +459,7 @@ test('EXT_mesh_gpu_instancing: LOD nodes instanced like their node, distances fo
     j.nodes[node].extensions = { ...(j.nodes[node].extensions || {}), EXT_mesh_gpu_instancing: { attributes: { TRANSLATION: tr, SCALE: sc } } };
     j.extensionsUsed = [...(j.extensionsUsed || []), 'EXT_mesh_gpu_instancing'];
   });
-  const run = mainJob(input, '.glb', [], {});
-  assert.deepEqual(runFatal(run), [], `the main job failed\n${describeRun(run.r)}`);
-  const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary, hausdorff: false });
-  await assertAspects(t, res, 'instanced cow', CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  const run = await checkedStructure(t, input, 'instanced cow', 'the main job');
   await t.test('each distance is 4x the plain cow\'s (the same levels)', () => {
     const plain = mainJob(plainIn, '.glb', [], {});
     assert.deepEqual(runFatal(plain), [], describeRun(plain.r));
@@ -505,10 +515,7 @@ test('KHR_node_visibility and KHR_animation_pointer: LOD nodes hidden and animat
     j.nodes[node].extensions = { ...(j.nodes[node].extensions || {}), KHR_node_visibility: { visible: true } };
     j.extensionsUsed = [...(j.extensionsUsed || []), 'KHR_animation_pointer', 'KHR_node_visibility'];
   });
-  const run = mainJob(input, '.glb', [], {});
-  assert.deepEqual(runFatal(run), [], `the main job failed\n${describeRun(run.r)}`);
-  const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary, hausdorff: false });
-  await assertAspects(t, res, 'cow with pointer channels', CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  const run = await checkedStructure(t, input, 'cow with pointer channels', 'the main job');
   await t.test('the file: 2 channels + 2 per LOD node, each pointing at its LOD node; LOD nodes carry the visibility', () => {
     const j = readRaw(run.out).json;
     const ids = j.nodes.find((n) => n.extensions?.MSFT_lod)?.extensions.MSFT_lod.ids || [];
@@ -530,10 +537,7 @@ test('a default-scene mesh used in another scene: that node gets the chain too, 
     const other = j.nodes.push({ name: 'cow in scene 1', mesh: 0, scale: [2, 2, 2] }) - 1;
     j.scenes.push({ name: 'second', nodes: [other] });
   });
-  const run = mainJob(input, '.glb', [], {});
-  assert.deepEqual(runFatal(run), [], `the main job failed\n${describeRun(run.r)}`);
-  const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary, hausdorff: false });
-  await assertAspects(t, res, 'cow in two scenes', CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  const run = await checkedStructure(t, input, 'cow in two scenes', 'the main job');
   await t.test('both nodes carry the same LOD meshes; the scene-1 node\'s distances are 2x the other\'s', () => {
     const j = readRaw(run.out).json;
     const carriers = j.nodes.filter((n) => n.extensions?.MSFT_lod);
@@ -553,10 +557,7 @@ test('a default-scene mesh used in another scene: that node gets the chain too, 
 test('the main job on its own output: nothing added; a new node of the mesh gets the chain', { skip: skipRuns }, async (t) => {
   const first = mainJob(corpusPath('scans/cow.glb'), '.glb', [], {});
   assert.deepEqual(runFatal(first), [], `the first run failed\n${describeRun(first.r)}`);
-  const again = mainJob(first.out, '.glb', [], { tag: 'again' });
-  assert.deepEqual(runFatal(again), [], `the second run failed\n${describeRun(again.r)}`);
-  const res = await analyzeChain({ inFile: first.out, outFile: again.out, summary: again.summary, hausdorff: false });
-  await assertAspects(t, res, 'cow, second run', CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  const again = await checkedStructure(t, first.out, 'cow, second run', 'the second run', { tag: 'again' });
   await t.test('second run: the same nodes and meshes, no mesh in the summary, one warning per mesh', () => {
     const a = readRaw(first.out).json, b = readRaw(again.out).json;
     assert.equal(b.meshes.length, a.meshes.length, 'meshes');
@@ -574,10 +575,7 @@ test('the main job on its own output: nothing added; a new node of the mesh gets
     j.scenes[j.scene ?? 0].nodes.push(added);
     fs.writeFileSync(partial, JSON.stringify(j));
   }
-  const third = mainJob(partial, '.glb', [], {});
-  assert.deepEqual(runFatal(third), [], `the run with a new node failed\n${describeRun(third.r)}`);
-  const res3 = await analyzeChain({ inFile: partial, outFile: third.out, summary: third.summary, hausdorff: false });
-  await assertAspects(t, res3, 'cow chained plus a new node', CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  const third = await checkedStructure(t, partial, 'cow chained plus a new node', 'the run with a new node');
   await t.test('the new node got a chain; the chained one kept its own', () => {
     const j = readRaw(third.out).json;
     const n = j.nodes.length;
@@ -600,10 +598,7 @@ test('animated node: every LOD node follows the node\'s rotation and translation
     j.animations = [{ name: 'spin', samplers: [{ input: times, output: turns }, { input: times, output: moves }],
       channels: [{ sampler: 0, target: { node, path: 'rotation' } }, { sampler: 1, target: { node, path: 'translation' } }] }];
   });
-  const run = mainJob(input, '.glb', [], {});
-  assert.deepEqual(runFatal(run), [], `the main job failed\n${describeRun(run.r)}`);
-  const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary, hausdorff: false });
-  await assertAspects(t, res, 'animated cow', CHAIN_ASPECTS.map(([k]) => k).filter((k) => k !== 'soundness'));
+  const run = await checkedStructure(t, input, 'animated cow', 'the main job');
   await t.test('the file: 2 channels + 2 per LOD node', () => {
     const j = readRaw(run.out).json;
     const ids = j.nodes.find((n) => n.extensions?.MSFT_lod)?.extensions.MSFT_lod.ids || [];

@@ -427,14 +427,19 @@ bool ends_with_ci(const std::string &s, const char *suffix)
 
 bool is_data_uri(const std::string &uri) { return uri.compare(0, 5, "data:") == 0; }
 
+// A scheme ("file:", "http:") is a ':' of the uri itself before any '/'; an
+// encoded one (%3A) is part of a file name, as lodpipe writes "x:y.bin".
+bool uri_has_scheme(const std::string &uri)
+{
+    const size_t colon = uri.find(':'), slash = uri.find('/');
+    return colon != std::string::npos && (slash == std::string::npos || colon < slash);
+}
+
 // An external uri must stay inside the input's folder: relative, no "..", no scheme.
 bool uri_escapes(const std::string &uri, const std::string &decoded)
 {
     if (decoded.empty() || decoded[0] == '/' || decoded[0] == '\\') return true;
-    // a scheme ("file:", "http:") is a ':' of the uri itself before any '/'; an
-    // encoded one (%3A) is part of a file name, as lodpipe writes "x:y.bin"
-    size_t colon = uri.find(':'), slash = uri.find('/');
-    if (colon != std::string::npos && (slash == std::string::npos || colon < slash)) return true;
+    if (uri_has_scheme(uri)) return true;
     if (decoded.size() >= 2 && decoded[1] == ':' && isalpha((unsigned char)decoded[0])) return true; // C:
     std::stringstream ss(decoded);
     std::string seg;
@@ -475,8 +480,7 @@ std::string resolve_uri(const std::string &dir, const std::string &uri)
         if (rest.compare(0, 9, "localhost") == 0) rest = rest.substr(9);
         return !rest.empty() && rest[0] == '/' ? tinygltf::dlib::urldecode(rest) : std::string();
     }
-    const size_t colon = uri.find(':'), slash = uri.find('/');
-    if (colon != std::string::npos && (slash == std::string::npos || colon < slash)) return std::string();
+    if (uri_has_scheme(uri)) return std::string();
     const std::string decoded = tinygltf::dlib::urldecode(uri);
     if (!decoded.empty() && decoded[0] == '/') return decoded;
     return dir == "." ? decoded : tinygltf::JoinPath(dir, decoded);
@@ -566,14 +570,16 @@ struct gltf_doc {
     // gltf_accessor_refs' counts for every accessor, computed in one walk of
     // the document when asked after a change: a walk per call made a scene of
     // N meshes cost N^2 (2,000 small meshes: minutes). Every C API function
-    // that edits `json` either keeps them right (edit_keeps_counts, a
-    // primitive's reference set through set_reference) or calls
-    // json_changed() first.
+    // that edits `json` goes through before_edit, which keeps them right
+    // (edit_keeps_counts; a primitive's reference, with after_reference_set)
+    // or drops them (json_changed).
     mutable std::vector<size_t> accessor_ref_counts;
     mutable bool accessor_ref_counts_valid = false;
     void json_changed() { accessor_ref_counts_valid = false; }
     std::vector<size_t> accessor_refs_at_load; // the same counts as the load left the document
 };
+
+static std::vector<size_t> walk_accessor_refs(const gltf_doc *doc); // (editing, below)
 
 namespace {
 
@@ -1166,10 +1172,8 @@ void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_
     mark_referenced_views(doc);
     build_records(doc);
     list_external_files(doc);
-    doc->json_changed();
-    doc->accessor_refs_at_load.resize(array_of(doc->json, "accessors").size());
-    for (size_t a = 0; a < doc->accessor_refs_at_load.size(); ++a)
-        doc->accessor_refs_at_load[a] = gltf_accessor_refs(doc, a);
+    doc->accessor_refs_at_load = doc->accessor_ref_counts = walk_accessor_refs(doc);
+    doc->accessor_ref_counts_valid = true;
 }
 
 void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
@@ -1633,11 +1637,18 @@ static void count_accessor_refs(const ojson &root, std::vector<size_t> &counts)
     walk(root, false);
 }
 
+// Every accessor's reference count, by one walk of the document as it is.
+static std::vector<size_t> walk_accessor_refs(const gltf_doc *doc)
+{
+    std::vector<size_t> counts(array_of(doc->json, "accessors").size(), 0);
+    count_accessor_refs(doc->json, counts);
+    return counts;
+}
+
 extern "C" size_t gltf_accessor_refs(const gltf_doc *doc, size_t index)
 {
     if (!doc->accessor_ref_counts_valid) {
-        doc->accessor_ref_counts.assign(array_of(doc->json, "accessors").size(), 0);
-        count_accessor_refs(doc->json, doc->accessor_ref_counts);
+        doc->accessor_ref_counts = walk_accessor_refs(doc);
         doc->accessor_ref_counts_valid = true;
     }
     return index < doc->accessor_ref_counts.size() ? doc->accessor_ref_counts[index] : 0;
@@ -1645,8 +1656,7 @@ extern "C" size_t gltf_accessor_refs(const gltf_doc *doc, size_t index)
 
 extern "C" size_t gltf_accessor_refs_walk(const gltf_doc *doc, size_t index)
 {
-    std::vector<size_t> counts(array_of(doc->json, "accessors").size(), 0);
-    count_accessor_refs(doc->json, counts);
+    const std::vector<size_t> counts = walk_accessor_refs(doc);
     return index < counts.size() ? counts[index] : 0;
 }
 
@@ -1834,7 +1844,7 @@ void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<glt
         const std::string uri = doc->json["images"][kv.first]["uri"].get<std::string>();
         const std::string decoded = tinygltf::dlib::urldecode(uri);
         if (!uri_escapes(uri, decoded)) images.push_back({decoded, &kv.second});
-        else if (decoded[0] != '/' && resolve_uri(".", uri) == decoded)
+        else if (!uri_has_scheme(uri) && decoded[0] != '/')
             root["images"][kv.first]["uri"] = uri_of_name(relative_path(dir_of(out_path), resolve_uri(doc->dir, uri)), true);
     }
 
