@@ -181,7 +181,8 @@ static void show_progress(batch *b, const char *current)
         long s = (long)(left + 0.5);
         snprintf(eta, sizeof eta, "%ld:%02ld", s / 60, s % 60);
     }
-    const char *name = current ? current : "";
+    char shown[256];
+    const char *name = lp_line(shown, sizeof shown, "%s", current ? current : "");
     size_t len = strlen(name);
     fprintf(stderr, "\r\033[Klodpipe batch: %zu/%zu files, ETA %s  %s%s", done, b->selected, eta, len > 50 ? "..." : "",
             len > 50 ? name + len - 50 : name);
@@ -363,7 +364,7 @@ static void load_manifest(batch *b)
         }
         jsonr_free(&r);
     }
-    if (!ok && !b->opt->quiet) fprintf(stderr, "lodpipe: %s: warning: not a lodpipe cache manifest; rebuilding everything\n", path);
+    if (!ok && !b->opt->quiet) lp_say("%s: warning: not a lodpipe cache manifest; rebuilding everything", path);
     free(text);
     free(path);
 }
@@ -529,12 +530,12 @@ static int start_job(batch *b, job *j)
     int out_pipe[2] = {-1, -1}, err_pipe[2] = {-1, -1};
     if (make_parent_folders(j->output) != 0) {
         j->exit_code = LP_IO;
-        fprintf(stderr, "lodpipe: %s: cannot create its output folder (%s)\n", j->output, strerror(errno));
+        lp_say("%s: cannot create its output folder (%s)", j->output, strerror(errno));
         return -1;
     }
     if (pipe(out_pipe) || pipe(err_pipe)) {
         j->exit_code = LP_IO;
-        fprintf(stderr, "lodpipe: %s: cannot start its job (%s)\n", j->source, strerror(errno));
+        lp_say("%s: cannot start its job (%s)", j->source, strerror(errno));
         for (int k = 0; k < 2; ++k) {
             if (out_pipe[k] >= 0) close(out_pipe[k]);
             if (err_pipe[k] >= 0) close(err_pipe[k]);
@@ -569,7 +570,7 @@ static int start_job(batch *b, job *j)
         close(out_pipe[0]);
         close(err_pipe[0]);
         j->exit_code = LP_IO;
-        fprintf(stderr, "lodpipe: %s: cannot start %s (%s)\n", j->source, b->self, strerror(rc));
+        lp_say("%s: cannot start %s (%s)", j->source, b->self, strerror(rc));
         return -1;
     }
     fcntl(out_pipe[0], F_SETFL, O_NONBLOCK);
@@ -696,20 +697,20 @@ static void finish_job(batch *b, job *j, int status)
         }
         record_free(&j->now);
         j->exit_code = LP_IO;
-        snprintf(message, sizeof message, "lodpipe: %s: the job's summary or files could not be read back\n", j->source);
+        lp_line(message, sizeof message, "lodpipe: %s: the job's summary or files could not be read back", j->source);
     } else if (WIFEXITED(status)) {
         j->exit_code = WEXITSTATUS(status);
-        if (!j->err.size) snprintf(message, sizeof message, "lodpipe: %s: the job failed with exit code %d\n", j->source, j->exit_code);
+        if (!j->err.size) lp_line(message, sizeof message, "lodpipe: %s: the job failed with exit code %d", j->source, j->exit_code);
     } else {
         int sig = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
         j->exit_code = 128 + sig;
-        snprintf(message, sizeof message, "lodpipe: %s: the job was killed by signal %d (%s)\n", j->source, sig, strsignal(sig));
+        lp_line(message, sizeof message, "lodpipe: %s: the job was killed by signal %d (%s)", j->source, sig, strsignal(sig));
     }
     j->state = JOB_FAILED;
     relay(b, &j->err);
     if (message[0]) {
         clear_progress(b);
-        fputs(message, stderr);
+        fprintf(stderr, "%s\n", message);
     }
     note_error(j, message);
 }
@@ -774,7 +775,7 @@ static void run_jobs(batch *b)
                 b->jobs[i].state = JOB_FAILED;
                 b->jobs[i].exit_code = LP_IO;
             }
-        fprintf(stderr, "lodpipe: %s: out of memory\n", b->source_dir);
+        lp_say("%s: out of memory", b->source_dir);
         return;
     }
     const char *current = NULL;
@@ -1047,7 +1048,7 @@ int batch_run(const batch_options *options)
     lp_error err = {0, ""};
     int rc = b.source_dir && b.output_dir ? prepare(&b, &err) : lp_fail(&err, LP_IO, "out of memory");
     if (rc) {
-        fprintf(stderr, "lodpipe: %s\n", err.msg);
+        lp_say("%s", err.msg);
         free_batch(&b);
         return rc;
     }
@@ -1064,7 +1065,7 @@ int batch_run(const batch_options *options)
     if (b.to_build) {
         rc = write_job_config(&b, &err);
         if (rc) {
-            fprintf(stderr, "lodpipe: %s\n", err.msg);
+            lp_say("%s", err.msg);
             free_batch(&b);
             return rc;
         }
@@ -1074,7 +1075,7 @@ int batch_run(const batch_options *options)
     double wall = lp_seconds() - b.start;
     totals t = count_totals(&b);
     rc = write_manifest(&b, &err);
-    if (rc) fprintf(stderr, "lodpipe: %s\n", err.msg);
+    if (rc) lp_say("%s", err.msg);
     if (options->json) print_json(&b, &t, wall);
     else print_table(&b, &t, wall);
     fflush(stdout);

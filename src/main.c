@@ -110,13 +110,13 @@ static void usage(FILE *f)
 
 static int usage_error(const char *msg)
 {
-    fprintf(stderr, "lodpipe: %s (see lodpipe --help)\n", msg);
+    lp_say("%s (see lodpipe --help)", msg);
     return LP_USAGE;
 }
 
 static int report(const char *file, const lp_error *err)
 {
-    fprintf(stderr, "lodpipe: %s: %s\n", file, err->msg);
+    lp_say("%s: %s", file, err->msg);
     return err->code;
 }
 
@@ -124,9 +124,9 @@ static void print_warnings(const cli *c, const char *file, const scene *s)
 {
     if (c->quiet) return;
     uint32_t shown = s->warning_count < 8 ? s->warning_count : 8;
-    for (uint32_t i = 0; i < shown; ++i) fprintf(stderr, "lodpipe: %s: warning: %s\n", file, s->warnings[i]);
+    for (uint32_t i = 0; i < shown; ++i) lp_say("%s: warning: %s", file, s->warnings[i]);
     if (s->warning_count > shown)
-        fprintf(stderr, "lodpipe: %s: warning: %u more warnings\n", file, s->warning_count - shown);
+        lp_say("%s: warning: %u more warnings", file, s->warning_count - shown);
 }
 
 static int load(const cli *c, const char *path, scene *s)
@@ -141,18 +141,25 @@ static int load(const cli *c, const char *path, scene *s)
     return LP_OK;
 }
 
+/* A name as inspect prints it: on one line (lp_line's escapes). */
+static const char *one_line(char *buf, size_t cap, const char *name)
+{
+    return lp_line(buf, cap, "%s", name ? name : "");
+}
+
 static int cmd_inspect(const cli *c)
 {
     const char *path = c->operands[0];
     scene s;
     int rc = load(c, path, &s);
     if (rc) return rc;
-    printf("file: %s\n", path);
+    char name[1024];
+    printf("file: %s\n", one_line(name, sizeof name, path));
     printf("scenes: %zu (default %lld), nodes: %u, meshes: %u, materials: %zu\n", gltf_count(s.doc, GLTF_SCENES),
            (long long)s.default_scene, s.node_count, s.mesh_count, gltf_count(s.doc, GLTF_MATERIALS));
     for (uint32_t m = 0; m < s.mesh_count; ++m) {
         const scene_mesh *mesh = &s.meshes[m];
-        printf("mesh %u \"%s\": %u primitives, %llu triangles, bbox diagonal %.9g\n", m, mesh->name,
+        printf("mesh %u \"%s\": %u primitives, %llu triangles, bbox diagonal %.9g\n", m, one_line(name, sizeof name, mesh->name),
                mesh->primitive_count, (unsigned long long)mesh->triangle_count, mesh->diagonal);
         for (uint32_t p = 0; p < mesh->primitive_count; ++p) {
             const scene_primitive *pr = &mesh->primitives[p];
@@ -169,7 +176,8 @@ static int cmd_inspect(const cli *c)
         printf("  instanced by %u node%s:", mesh->instance_count, mesh->instance_count == 1 ? "" : "s");
         for (uint32_t i = 0; i < mesh->instance_count; ++i) {
             const scene_node *n = &s.nodes[mesh->instances[i]];
-            printf(" %u \"%s\" (scale %.6g)", mesh->instances[i], n->name, scene_max_scale(n->world));
+            printf(" %u \"%s\" (scale %.6g)", mesh->instances[i], one_line(name, sizeof name, n->name),
+                   scene_max_scale(n->world));
         }
         printf("\n");
     }
@@ -177,7 +185,7 @@ static int cmd_inspect(const cli *c)
     for (uint32_t i = 0; i < s.node_count; ++i) {
         const scene_node *n = &s.nodes[i];
         if (!n->lod_count) continue;
-        printf("LOD chain on node %u \"%s\": mesh %lld", i, n->name, (long long)n->mesh);
+        printf("LOD chain on node %u \"%s\": mesh %lld", i, one_line(name, sizeof name, n->name), (long long)n->mesh);
         for (uint32_t l = 0; l < n->lod_count; ++l)
             printf(" -> node %lld (mesh %lld)", (long long)n->lod_ids[l], (long long)s.nodes[n->lod_ids[l]].mesh);
         printf("\n");
@@ -200,18 +208,18 @@ static int output_name_ok(const char *out)
 static int output_usable(const cli *c, const char *in, const char *out)
 {
     if (!output_name_ok(out)) {
-        fprintf(stderr, "lodpipe: %s: the output name must end in .glb or .gltf\n", out);
+        lp_say("%s: the output name must end in .glb or .gltf", out);
         return LP_USAGE;
     }
     if (!c->force && output_same_file(in, out)) {
-        fprintf(stderr, "lodpipe: %s: refusing to overwrite the input (use --force)\n", out);
+        lp_say("%s: refusing to overwrite the input (use --force)", out);
         return LP_USAGE;
     }
     lp_error err = {0, ""};
     if (output_check_folder(out, &err)) return report(out, &err); /* now, not after the work */
     if (c->depfile) {
         if (output_same_path(c->depfile, out) || output_same_path(c->depfile, in)) {
-            fprintf(stderr, "lodpipe: %s: --depfile names the %s\n", c->depfile,
+            lp_say("%s: --depfile names the %s", c->depfile,
                     output_same_path(c->depfile, out) ? "output" : "input");
             return LP_USAGE;
         }
@@ -226,7 +234,7 @@ static int depfile_usable(const cli *c, const gltf_doc *doc)
 {
     for (size_t i = 0; c->depfile && i < gltf_external_file_count(doc); ++i)
         if (output_same_path(c->depfile, gltf_external_file(doc, i))) {
-            fprintf(stderr, "lodpipe: %s: --depfile names %s, a file the input reads\n", c->depfile,
+            lp_say("%s: --depfile names %s, a file the input reads", c->depfile,
                     gltf_external_file(doc, i));
             return LP_USAGE;
         }
@@ -581,7 +589,7 @@ static int cmd_simplify(const cli *c)
             first = 0;
             if (!c->quiet && isatty(STDERR_FILENO))
                 for (uint32_t k = 0; k < r.level_count; ++k)
-                    fprintf(stderr, "lodpipe: %s: mesh %u level %u: %u -> %u triangles, bound %.4g%% of diagonal (%.2f s)\n",
+                    lp_say("%s: mesh %u level %u: %u -> %u triangles, bound %.4g%% of diagonal (%.2f s)",
                             in, m, k + 1, w.triangle_count, r.levels[k].triangle_count,
                             r.diagonal > 0 ? 100.0 * r.levels[k].bound / r.diagonal : 0.0, r.levels[k].stats.seconds);
         }
@@ -701,14 +709,14 @@ static int cmd_lod(const cli *c)
     uint32_t scene_meshes = 0;
     for (uint32_t m = 0; m < s.mesh_count; ++m) scene_meshes += s.meshes[m].instance_count && s.meshes[m].triangle_count;
     if (!scene_meshes && !c->quiet)
-        fprintf(stderr, "lodpipe: %s: warning: the default scene uses no mesh with triangles; nothing to simplify\n", in);
+        lp_say("%s: warning: the default scene uses no mesh with triangles; nothing to simplify", in);
     for (uint32_t m = 0; m < s.mesh_count && !rc; ++m) {
         const scene_mesh *mesh = &s.meshes[m];
         if (!mesh->instance_count || !mesh->triangle_count) continue;
         if (!mesh_has_unchained_node(&s, m)) {
             if (!c->quiet)
-                fprintf(stderr, "lodpipe: %s: warning: meshes[%u]: every node that uses it already has MSFT_lod; "
-                                "left as it is\n", in, m);
+                lp_say("%s: warning: meshes[%u]: every node that uses it already has MSFT_lod; "
+                                "left as it is", in, m);
             continue;
         }
         weld_result w;
@@ -733,8 +741,8 @@ static int cmd_lod(const cli *c)
         const int welded = !rc;
         if (!rc) rc = scene_reload_mesh_data(&s, m, &err);
         if (welded && w.stats.degenerate_dangling && !c->quiet)
-            fprintf(stderr, "lodpipe: %s: warning: meshes[%u]: %u zero-area triangles may lie off its surface; "
-                            "the mesh is left without LOD levels\n", in, m, w.stats.degenerate_dangling);
+            lp_say("%s: warning: meshes[%u]: %u zero-area triangles may lie off its surface; "
+                            "the mesh is left without LOD levels", in, m, w.stats.degenerate_dangling);
         for (uint32_t k = 0; welded && draco && k < r.level_count; ++k) r.levels[k].eps = c->levels[k] * r.diagonal;
         if (!rc && draco) /* the quantization bound goes into the recorded errors */
             rc = dracoout_plan_mesh(&s, m, &w, &r, chain.min_reduction, &draco_opt, bits, &plan, &err);
@@ -754,13 +762,13 @@ static int cmd_lod(const cli *c)
         }
         if (progress)
             for (uint32_t k = 0; k < sum.level_count; ++k)
-                fprintf(stderr, "lodpipe: mesh %u \"%s\" level %u: %llu -> %u triangles, error %.4g%% (%.2f s)\n", m,
+                lp_say("mesh %u \"%s\" level %u: %llu -> %u triangles, error %.4g%% (%.2f s)", m,
                         mesh->name, k + 1, (unsigned long long)mesh->triangle_count, sum.levels[k].triangles,
                         r.diagonal > 0 ? 100.0 * sum.levels[k].error / r.diagonal : 0.0,
                         r.levels[sum.levels[k].ladder_level - 1].stats.seconds);
         if (!c->quiet)
             for (uint32_t i = 0; i < sum.warning_count && i < 4; ++i)
-                fprintf(stderr, "lodpipe: %s: warning: %s\n", in, sum.warnings[i]);
+                lp_say("%s: warning: %s", in, sum.warnings[i]);
         jsonw_printf(&j, "%s{\"mesh\":%u,\"name\":", first ? "" : ",", m);
         jsonw_string(&j, mesh->name);
         jsonw_printf(&j, ",\"triangles\":%llu,\"diagonal\":", (unsigned long long)mesh->triangle_count);
@@ -772,8 +780,8 @@ static int cmd_lod(const cli *c)
             jsonw_number(&j, plan.added_error[0]);
             jsonw_raw(&j, "},");
             if (!c->quiet && plan.position_bits > plan.configured_bits)
-                fprintf(stderr, "lodpipe: %s: mesh %u \"%s\": Draco position bits raised from %d to %d so that every "
-                                "level's error plus quantization stays within its eps\n",
+                lp_say("%s: mesh %u \"%s\": Draco position bits raised from %d to %d so that every "
+                                "level's error plus quantization stays within its eps",
                         in, m, mesh->name, plan.configured_bits, plan.position_bits);
         }
         jsonw_raw(&j, "\"levels\":[");
@@ -897,12 +905,12 @@ static int cmd_check(const cli *c)
         free(lp);
         free(lt);
     }
-    if (rc) fprintf(stderr, "lodpipe: %s: out of memory\n", in);
+    if (rc) lp_say("%s: out of memory", in);
     else if (!chains) printf("no LOD chains\n");
     scene_free(&s);
     if (rc) return rc;
     if (failed) {
-        fprintf(stderr, "lodpipe: %s: a measured distance exceeds its recorded error\n", in);
+        lp_say("%s: a measured distance exceeds its recorded error", in);
         return LP_PROMISE;
     }
     return LP_OK;
@@ -1028,11 +1036,11 @@ static int parse(int argc, char **argv, cli *c)
     lp_error err = {0, ""};
     config_defaults(&c->config);
     if (!rc && c->config_path && (rc = config_load(&c->config, c->config_path, &err)) != 0)
-        fprintf(stderr, "lodpipe: %s\n", err.msg);
+        lp_say("%s", err.msg);
     for (size_t k = 0; !rc && k < config_argc; k += 2)
         if ((rc = config_set(&c->config, config_args[k], config_args[k + 1], &err)) != 0)
-            fprintf(stderr, "lodpipe: %s\n", err.msg);
-    if (!rc && (rc = config_check(&c->config, &err)) != 0) fprintf(stderr, "lodpipe: %s\n", err.msg);
+            lp_say("%s", err.msg);
+    if (!rc && (rc = config_check(&c->config, &err)) != 0) lp_say("%s", err.msg);
     free(config_args);
     if (rc) return rc;
     for (size_t k = 0; k < c->config.lod.level_count && k < SIMPLIFY_MAX_LEVELS; ++k)

@@ -7,6 +7,8 @@
 #ifndef LODPIPE_STATUS_H
 #define LODPIPE_STATUS_H
 
+#include <stddef.h>
+
 enum {
     LP_OK = 0,
     LP_USAGE = 1,   /* the command line is wrong */
@@ -25,5 +27,15 @@ typedef struct lp_error {
  * `return lp_fail(err, LP_INVALID, "accessors[%zu]: ...", i);`. */
 int lp_fail(lp_error *err, int code, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
+
+/* Formats one message line into out (at most cap - 1 bytes, always
+ * terminated, no newline added), showing every control character of the
+ * result as an escape (\n, \t, \r or \xHH): a file or mesh name that holds a
+ * newline cannot split "one line per message". Returns out. */
+char *lp_line(char *out, size_t cap, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+
+/* Prints "lodpipe: " and the message (as lp_line formats it) plus a newline to
+ * stderr in one write, so lines of concurrent jobs do not interleave. */
+void lp_say(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 #endif

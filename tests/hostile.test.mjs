@@ -516,3 +516,39 @@ test('safe writes: refusal, missing and read-only folders, full disk', { skip },
     assert.deepEqual(p, [], describeRun(r));
   });
 });
+
+// A file or mesh name is text from outside: a newline in it must not split a message into two lines
+// (a CI log parser, or a batch summary that keeps the first line, would lose or misread it).
+test('names with control characters stay on one line, escaped', { skip }, async (t) => {
+  const dir = tempDir(t);
+  const bad = path.join(dir, 'a\nb.glb');
+  fs.writeFileSync(bad, 'not a glb at all');
+  await t.test('an error naming such a file: one line, the newline shown as \\n', () => {
+    const r = runLodpipe([bad, '-o', path.join(dir, 'out.glb')]);
+    assert.deepEqual(refusalProblems(r, 2, 'a\\nb.glb', dir, ['a\nb.glb']), [], describeRun(r));
+  });
+  await t.test('batch: the failed file is one line in stderr and in the summary', () => {
+    const src = path.join(dir, 'src');
+    fs.mkdirSync(src);
+    fs.copyFileSync(bad, path.join(src, 'x\ty.glb'));
+    const r = runLodpipe(['batch', src, '-o', path.join(dir, 'built'), '--json']);
+    assert.equal(r.status, 5, describeRun(r));
+    const lines = r.stderr.trim().split('\n');
+    assert.equal(lines.length, 1, describeRun(r));
+    assert.match(lines[0], /x\\ty\.glb/);
+    assert.deepEqual(oneLineErrorProblems(lines[0]), []);
+  });
+  await t.test('inspect prints file, mesh and node names on their own lines', () => {
+    const { json, bin } = parseGlb(fs.readFileSync(DUCK));
+    json.meshes[0].name = 'mesh\nname';
+    json.nodes.forEach((n) => { n.name = 'node\r\nname\u0007'; });
+    const file = path.join(dir, 'c\td.glb');
+    writeGlb(file, json, bin);
+    const r = runLodpipe(['inspect', file]);
+    assert.equal(r.status, 0, describeRun(r));
+    assert.match(r.stdout, /^file: .*c\\td\.glb$/m);
+    assert.match(r.stdout, /^mesh 0 "mesh\\nname": /m);
+    assert.match(r.stdout, /"node\\r\\nname\\x07"/);
+    assert.ok(r.stdout.split('\n').every((l) => l === '' || /^(file|scenes|mesh|  |LOD)/.test(l)), r.stdout);
+  });
+});
