@@ -433,41 +433,24 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
  * Returns 0, or -1 when there is no channel c. */
 static int channel_target(const scene *s, size_t a, size_t c, int64_t *node, char property[64])
 {
-    char pointer[160];
-    snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu", a, c);
-    char *text = gltf_get_json(s->doc, pointer);
-    if (!text) return -1;
-    free(text);
-    snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/node", a, c);
-    text = gltf_get_json(s->doc, pointer);
-    *node = text ? strtoll(text, NULL, 10) : -1;
-    free(text);
-    snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/path", a, c);
-    text = gltf_get_json(s->doc, pointer);
-    size_t len = text ? strlen(text) : 0; /* a JSON string: "..." */
+    gltf_channel ch;
+    if (gltf_get_channel(s->doc, a, c, &ch) != 0) return -1;
+    *node = ch.node;
     property[0] = 0;
-    if (len >= 2 && len - 2 < 64 && text[0] == '"') {
-        memcpy(property, text + 1, len - 2);
-        property[len - 2] = 0;
-    }
-    free(text);
+    if (strlen(ch.path) < 64) strcpy(property, ch.path);
     if (strcmp(property, "pointer") != 0) return 0;
     property[0] = 0;
     *node = -1;
-    snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/extensions/KHR_animation_pointer/pointer", a,
-             c);
-    text = gltf_get_json(s->doc, pointer);
-    long long n = -1;
-    int at = 0;
-    len = text ? strlen(text) : 0;
-    /* "\"/nodes/N/rest\"": no escapes in the names lodpipe follows */
-    if (len >= 2 && text[0] == '"' && sscanf(text, "\"/nodes/%lld/%n", &n, &at) == 1 && at > 0 && n >= 0 &&
-        len - 1 - (size_t)at < 64 && !strchr(text + at, '\\')) {
-        *node = n;
-        memcpy(property, text + at, len - 1 - (size_t)at);
-        property[len - 1 - (size_t)at] = 0;
-    }
-    free(text);
+    const char *p = ch.pointer;
+    if (!p || strncmp(p, "/nodes/", 7) != 0) return 0;
+    p += 7;
+    const char *digits = p;
+    long long n = 0;
+    while (*p >= '0' && *p <= '9' && n < (1LL << 40)) n = n * 10 + (*p++ - '0');
+    /* a JSON pointer index: decimal digits, no leading zero */
+    if (p == digits || *p != '/' || (*digits == '0' && p - digits > 1) || strlen(p + 1) >= 64) return 0;
+    *node = n;
+    strcpy(property, p + 1);
     return 0;
 }
 
@@ -475,18 +458,22 @@ static int channel_target(const scene *s, size_t a, size_t c, int64_t *node, cha
  * property (its target node, or its KHR_animation_pointer pointer). */
 static int retarget_channel(scene *s, size_t a, size_t c, int64_t node, const char *property)
 {
+    gltf_channel ch;
+    if (gltf_get_channel(s->doc, a, c, &ch) != 0) return -1;
     char pointer[160];
-    snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/extensions/KHR_animation_pointer/pointer", a,
-             c);
-    char *text = gltf_get_json(s->doc, pointer);
-    free(text);
-    if (text) {
+    if (ch.pointer) {
+        size_t len = strlen(property);
+        char *value = malloc(len + 32);
         jsonw j = {0};
-        jsonw_printf(&j, "\"/nodes/%lld/", (long long)node);
-        jsonw_raw(&j, property);
-        jsonw_raw(&j, "\"");
-        const int rc = j.failed ? -1 : gltf_set_json(s->doc, pointer, j.text);
+        if (value) {
+            snprintf(value, len + 32, "/nodes/%lld/%s", (long long)node, property);
+            jsonw_string(&j, value);
+        }
+        snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/extensions/KHR_animation_pointer/pointer",
+                 a, c);
+        const int rc = !value || j.failed ? -1 : gltf_set_json(s->doc, pointer, j.text);
         jsonw_free(&j);
+        free(value);
         return rc;
     }
     char value[32];
@@ -553,7 +540,7 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
     char property[64];
     for (size_t a = 0; a < gltf_count(s->doc, GLTF_ANIMATIONS); ++a)
         for (size_t c = 0; channel_target(s, a, c, &node, property) == 0; ++c)
-            if (node == (int64_t)n && strcmp(property, "weights") == 0 && retarget_channel(s, a, c, carrier, property))
+            if (node == (int64_t)n && strcmp(property, "weights") == 0 && retarget_channel(s, a, c, carrier, property) != 0)
                 return lp_fail(err, LP_INVALID, "cannot retarget an animation channel to nodes[%lld]", (long long)carrier),
                        -1;
     return carrier;
@@ -604,12 +591,10 @@ static int follow_animations(scene *s, int64_t node, const int64_t *lod_nodes, u
     for (size_t a = 0; a < gltf_count(s->doc, GLTF_ANIMATIONS); ++a) {
         int64_t target;
         char property[64], pointer[128];
-        size_t channels = 0;
-        while (channel_target(s, a, channels, &target, property) == 0) channels++;
+        const size_t channels = gltf_channel_count(s->doc, a);
         size_t appended = 0;
         for (size_t c = 0; c < channels; ++c) {
-            channel_target(s, a, c, &target, property);
-            if (target != node || !followed_property(property)) continue;
+            if (channel_target(s, a, c, &target, property) != 0 || target != node || !followed_property(property)) continue;
             snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu", a, c);
             char *channel = gltf_get_json(s->doc, pointer);
             if (!channel) return lp_fail(err, LP_INVALID, "out of memory");

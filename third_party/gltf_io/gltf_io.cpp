@@ -1583,6 +1583,43 @@ extern "C" int gltf_copy_json(gltf_doc *doc, const char *from, const char *to)
     }
 }
 
+static const ojson *channels_of(const gltf_doc *doc, size_t animation)
+{
+    const ojson &animations = array_of(doc->json, "animations");
+    if (animation >= animations.size() || !animations[animation].is_object()) return nullptr;
+    auto it = animations[animation].find("channels");
+    return it == animations[animation].end() || !it->is_array() ? nullptr : &*it;
+}
+
+extern "C" size_t gltf_channel_count(const gltf_doc *doc, size_t animation)
+{
+    const ojson *channels = channels_of(doc, animation);
+    return channels ? channels->size() : 0;
+}
+
+extern "C" int gltf_get_channel(const gltf_doc *doc, size_t animation, size_t channel, gltf_channel *out)
+{
+    const ojson *channels = channels_of(doc, animation);
+    if (!channels || channel >= channels->size()) return -1;
+    out->node = -1;
+    out->path = "";
+    out->pointer = nullptr;
+    const ojson &c = (*channels)[channel];
+    auto target = c.is_object() ? c.find("target") : c.end();
+    if (!c.is_object() || target == c.end() || !target->is_object()) return 0;
+    auto node = target->find("node");
+    if (node != target->end() && node->is_number_unsigned()) out->node = i64_or_none(*target, "node");
+    auto path = target->find("path");
+    if (path != target->end() && path->is_string()) out->path = path->get_ref<const std::string &>().c_str();
+    auto ext = target->find("extensions");
+    if (ext == target->end() || !ext->is_object()) return 0;
+    auto ptr_ext = ext->find("KHR_animation_pointer");
+    if (ptr_ext == ext->end() || !ptr_ext->is_object()) return 0;
+    auto pointer = ptr_ext->find("pointer");
+    if (pointer != ptr_ext->end() && pointer->is_string()) out->pointer = pointer->get_ref<const std::string &>().c_str();
+    return 0;
+}
+
 extern "C" char *gltf_get_json(const gltf_doc *doc, const char *pointer)
 {
     try {

@@ -150,6 +150,16 @@ int gltf_get_scene(const gltf_doc *doc, size_t index, gltf_scene *out);
 /* The "scene" property, or -1 when absent. */
 int64_t gltf_default_scene(const gltf_doc *doc);
 
+/* Channel c of animation a as the document holds it now. The strings point
+ * into the document: valid until its next edit. */
+typedef struct gltf_channel {
+    int64_t node;        /* target.node, -1 when absent */
+    const char *path;    /* target.path, "" when absent */
+    const char *pointer; /* target.extensions.KHR_animation_pointer.pointer, NULL when absent */
+} gltf_channel;
+size_t gltf_channel_count(const gltf_doc *doc, size_t animation); /* 0 when there is no animation a */
+int gltf_get_channel(const gltf_doc *doc, size_t animation, size_t channel, gltf_channel *out); /* 0, or -1 */
+
 /* The extensionsUsed / extensionsRequired lists. */
 size_t gltf_extension_count(const gltf_doc *doc, int required);
 const char *gltf_extension_name(const gltf_doc *doc, int required, size_t index);
