@@ -552,3 +552,36 @@ test('names with control characters stay on one line, escaped', { skip }, async 
     assert.ok(r.stdout.split('\n').every((l) => l === '' || /^(file|scenes|mesh|  |LOD)/.test(l)), r.stdout);
   });
 });
+
+// Input may come through a pipe (`lodpipe <(curl ...)`, `... | lodpipe /dev/stdin`): it is read to its end. What
+// a glTF references must be a regular file: a directory was "read" at an absurd size (an allocation abort under
+// ASan) and a FIFO blocked the run forever. A device is never read (/dev/zero would not end).
+test('non-regular files: a piped input is read; directories, FIFOs and devices are refused at once', { skip }, async (t) => {
+  const truck = ['CesiumMilkTruck.gltf', 'CesiumMilkTruck0.bin', 'CesiumMilkTruck.png'];
+  await t.test('a piped input (/dev/stdin) is simplified like the file', (st) => {
+    const dir = tempDir(st);
+    const out = path.join(dir, 'out.glb');
+    const r = runLodpipe(['/dev/stdin', '-o', out], { prefix: ['sh', '-c', 'cat "$0" | "$@"', DUCK] });
+    assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
+    const direct = runLodpipe([DUCK, '-o', path.join(dir, 'direct.glb')]);
+    assert.ok(fs.readFileSync(out).equals(fs.readFileSync(path.join(dir, 'direct.glb'))), 'same bytes as from the file');
+  });
+  for (const [name, make] of [['a directory', (p) => fs.mkdirSync(p)],
+                              ['a FIFO', (p) => spawnSync('mkfifo', [p])]]) {
+    for (const replaced of ['CesiumMilkTruck0.bin', 'CesiumMilkTruck.png']) {
+      await t.test(`${replaced} is ${name} -> exit 4, one line naming it, no hang`, (st) => {
+        const dir = tempDir(st);
+        for (const f of truck) if (f !== replaced) fs.copyFileSync(corpusPath(`scenes/CesiumMilkTruck/${f}`), path.join(dir, f));
+        make(path.join(dir, replaced));
+        const r = runLodpipe([path.join(dir, 'CesiumMilkTruck.gltf'), '-o', path.join(dir, 'out.glb')], { timeout: 60000 });
+        assert.deepEqual(refusalProblems(r, 4, replaced, dir, [...truck, `${replaced}/`]), [], describeRun(r));
+        assert.match(r.stderr, /not a regular file/);
+      });
+    }
+  }
+  await t.test('a device as input -> exit 4 without reading it', (st) => {
+    const dir = tempDir(st);
+    const r = runLodpipe(['/dev/zero', '-o', path.join(dir, 'out.glb')], { timeout: 60000 });
+    assert.deepEqual(refusalProblems(r, 4, '/dev/zero', dir), [], describeRun(r));
+  });
+});

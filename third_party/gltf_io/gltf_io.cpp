@@ -376,6 +376,9 @@ void erase_ext(ojson &o, const char *name)
     if (e->empty()) o.erase("extensions");
 }
 
+// Reads the input file whole. A pipe (`lodpipe <(...)`, /dev/stdin) and a
+// file whose size stat does not know (/proc) are read to their end; a
+// directory or a device is refused (reading /dev/zero would never end).
 bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out, std::string *why)
 {
     struct stat st;
@@ -387,8 +390,13 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
         *why = "is a directory";
         return false;
     }
+    if (!S_ISREG(st.st_mode) && !S_ISFIFO(st.st_mode)) {
+        *why = "cannot read (not a regular file or a pipe)";
+        return false;
+    }
+    const std::string too_large = "is larger than the " + std::to_string(cap) + "-byte limit";
     if (uint64_t(st.st_size) > cap) {
-        *why = "is larger than the " + std::to_string(cap) + "-byte limit";
+        *why = too_large;
         return false;
     }
     FILE *f = fopen(path.c_str(), "rb");
@@ -396,12 +404,32 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
         *why = std::string("cannot read (") + strerror(errno) + ")";
         return false;
     }
-    out->resize(size_t(st.st_size));
-    size_t got = out->empty() ? 0 : fread(out->data(), 1, out->size(), f);
-    bool ok = got == out->size() && !ferror(f);
+    out->clear();
+    bool ok = true;
+    uint8_t chunk[1 << 16];
+    for (size_t got; ok && (got = fread(chunk, 1, sizeof chunk, f)) > 0;) {
+        if (uint64_t(out->size()) + got > cap) {
+            *why = too_large;
+            ok = false;
+        } else {
+            out->insert(out->end(), chunk, chunk + got);
+        }
+    }
+    if (ok && ferror(f)) {
+        *why = std::string("cannot read (") + strerror(errno) + ")";
+        ok = false;
+    }
     fclose(f);
-    if (!ok) *why = "read failed";
     return ok;
+}
+
+// An external buffer or image must be a regular file: a directory would be
+// "read" as an absurd size, a FIFO would block the run.
+void require_regular_file(const std::string &full, const std::string &what, const std::string &uri)
+{
+    struct stat st;
+    if (stat(full.c_str(), &st) != 0) fail(GLTF_IO, what + ": cannot read \"" + uri + "\"");
+    if (!S_ISREG(st.st_mode)) fail(GLTF_IO, what + ": cannot read \"" + uri + "\" (not a regular file)");
 }
 
 std::string dir_of(const std::string &path)
@@ -671,6 +699,7 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
                 struct stat st;
                 const std::string full = resolve_uri(dir, uri);
                 if (full.empty()) fail(GLTF_IO, at("buffers", b) + ": cannot read \"" + uri + "\" (not a local file)");
+                require_regular_file(full, at("buffers", b), uri);
                 if (stat(full.c_str(), &st) != 0) fail(GLTF_IO, at("buffers", b) + ": cannot read \"" + uri + "\"");
                 uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
                 if (uint64_t(st.st_size) > cap) fail(GLTF_INVALID, at("buffers", b) + ": \"" + uri + "\" is too large");
@@ -721,7 +750,9 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
                 const std::string decoded = tinygltf::dlib::urldecode(uri);
                 if (!opt.allow_external_uris && uri_escapes(uri, decoded))
                     fail(GLTF_INVALID, path + ".uri \"" + uri + "\" points outside the input's folder (use --allow-external-uris)");
-                if (resolve_uri(dir, uri).empty()) fail(GLTF_IO, path + ": cannot read \"" + uri + "\" (not a local file)");
+                const std::string full = resolve_uri(dir, uri);
+                if (full.empty()) fail(GLTF_IO, path + ": cannot read \"" + uri + "\" (not a local file)");
+                require_regular_file(full, path, uri);
             }
         }
     }
