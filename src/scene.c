@@ -1,6 +1,7 @@
 /* scene.c - see scene.h. */
 #include "scene.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -164,6 +165,21 @@ static int load_nodes(scene *s, lp_error *err)
         size_t v = start;
         for (size_t step = 0; step <= n; ++step) v = (size_t)s->nodes[v].parent;
         rc = lp_fail(err, LP_INVALID, "nodes[%zu] is part of a cycle in the node hierarchy", v);
+        goto done;
+    }
+    /* A mesh placed beyond float's range (scales that multiply past it down a
+     * deep hierarchy) has no size on screen that a switching distance could
+     * express: refused, rather than written as null distances. */
+    for (size_t i = 0; i < n; ++i) {
+        if (s->nodes[i].mesh < 0) continue;
+        for (int k = 0; k < 16; ++k)
+            if (!(fabs(s->nodes[i].world[k]) <= FLT_MAX)) {
+                rc = lp_fail(err, LP_INVALID,
+                             "nodes[%zu]: its world transform is beyond the float range (its own and its parents' "
+                             "transforms multiplied)",
+                             i);
+                goto done;
+            }
     }
 done:
     free(stack);

@@ -23,8 +23,8 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { spawnSync } from 'node:child_process';
 import {
-  corpusPath, describeRun, listFilesRecursive, oneLineErrorProblems, parseGlb, repoRoot, runHealthProblems, runLodpipe,
-  skipWithoutBinary, successStderrProblems, tempDir,
+  corpusPath, describeRun, listFilesRecursive, newValidatorErrors, oneLineErrorProblems, parseGlb, repoRoot,
+  runHealthProblems, runLodpipe, skipWithoutBinary, successStderrProblems, tempDir, validateFileCached,
 } from './lib/gltf.mjs';
 import { BUILD, CHAIN_ASPECTS, analyzeChain, formatProblems, hausdorffAvailable } from './lib/lodcheck.mjs';
 import { pack, writeGlb } from './lib/lodfixture.mjs';
@@ -583,5 +583,42 @@ test('non-regular files: a piped input is read; directories, FIFOs and devices a
     const dir = tempDir(st);
     const r = runLodpipe(['/dev/zero', '-o', path.join(dir, 'out.glb')], { timeout: 60000 });
     assert.deepEqual(refusalProblems(r, 4, '/dev/zero', dir), [], describeRun(r));
+  });
+});
+
+// Invalid input that lodpipe can still process is kept as it came (no new validator error); a transform no float can
+// hold is refused rather than written as null switching distances.
+test('a mesh without primitives is kept as it is; a world transform beyond float range -> exit 2', { skip }, async (t) => {
+  await t.test('a mesh without "primitives", used by a node: exit 0, the mesh unchanged, no new validator error', async (st) => {
+    const dir = tempDir(st);
+    const { json, bin } = parseGlb(fs.readFileSync(DUCK));
+    json.meshes.push({ name: 'noprims', extras: { kept: true } });
+    json.nodes.push({ mesh: json.meshes.length - 1, name: 'empty' });
+    json.scenes[json.scene ?? 0].nodes.push(json.nodes.length - 1);
+    const input = path.join(dir, 'in.glb');
+    writeGlb(input, json, bin);
+    const out = path.join(dir, 'out.glb');
+    const r = runLodpipe([input, '-o', out]);
+    assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
+    const outJson = parseGlb(fs.readFileSync(out)).json;
+    assert.deepEqual(outJson.meshes[json.meshes.length - 1], { name: 'noprims', extras: { kept: true } });
+    assert.deepEqual(newValidatorErrors(await validateFileCached(input), await validateFileCached(out)), []);
+  });
+  await t.test('nine nested scales of 1e38, and one scale of 1e300: exit 2 naming the node', (st) => {
+    const dir = tempDir(st);
+    const { json, bin } = parseGlb(fs.readFileSync(DUCK));
+    const mesh = json.nodes.find((n) => n.mesh !== undefined).mesh;
+    const cases = {
+      'nested.glb': [...Array.from({ length: 8 }, (_, i) => ({ children: [i + 1], scale: [1e38, 1e38, 1e38] })),
+                     { mesh, scale: [1e38, 1e38, 1e38] }],
+      'single.glb': [{ mesh, scale: [1e300, 1, 1] }],
+    };
+    for (const [name, nodes] of Object.entries(cases)) {
+      const input = path.join(dir, name);
+      writeGlb(input, { ...json, nodes, scenes: [{ nodes: [0] }], scene: 0, animations: undefined }, bin);
+      const r = runLodpipe([input, '-o', path.join(dir, 'out.glb')]);
+      assert.deepEqual(refusalProblems(r, 2, name, dir, Object.keys(cases)), [], describeRun(r));
+      assert.match(r.stderr, /nodes\[\d\]: its world transform is beyond the float range/);
+    }
   });
 });

@@ -1028,8 +1028,10 @@ void decode_compression(gltf_doc *doc)
     auto meshes = doc->json.find("meshes");
     if (meshes != doc->json.end())
         for (size_t m = 0; m < meshes->size(); ++m) {
-            ojson &prims = (*meshes)[m]["primitives"];
-            if (!prims.is_array()) continue;
+            // find, not []: a mesh without primitives (invalid, but kept as it is) must not gain "primitives": null
+            auto found = (*meshes)[m].is_object() ? (*meshes)[m].find("primitives") : (*meshes)[m].end();
+            if (found == (*meshes)[m].end() || !found->is_array()) continue;
+            ojson &prims = *found;
             for (size_t p = 0; p < prims.size(); ++p)
                 if (has_ext(prims[p], kDraco)) {
                     decode_draco_primitive(doc, prims[p], at("meshes", m) + ".primitives[" + std::to_string(p) + "]");
