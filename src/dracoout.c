@@ -417,7 +417,9 @@ static int pack_primitive(const gltf_doc *doc, const gltf_primitive *g, const ui
         d->normalized = acc.normalized;
         d->components = acc.components;
         d->values = pp->values[a];
-        d->quantization_bits = bits_of(d->semantic, o, position_bits);
+        /* Quantized skin weights no longer sum to 1 (a validator error, and a
+         * visible shrink of skinned vertices): stored losslessly. */
+        d->quantization_bits = strncmp(g->attributes[a].name, "WEIGHTS_", 8) == 0 ? 0 : bits_of(d->semantic, o, position_bits);
         pp->accessors[a] = index;
         if (d->semantic == DRACO_SEMANTIC_POSITION) pp->position = (int)a;
     }

@@ -272,6 +272,18 @@ function checkPrimitive(rawD, rawR, m, p) {
     }
     const match = matchTriangles(exactPos, exactTris, decodedPos, stream.faces, tol, label);
     problems.push(...match.problems);
+    // skin weights are stored losslessly: quantized ones no longer sum to 1 (a validator error the input did not
+    // have). Every decoded float WEIGHTS_n tuple is one of the primitive's exact tuples, bit for bit.
+    for (const name of Object.keys(jp.attributes).filter((a) => a.startsWith('WEIGHTS_'))) {
+      const acc = exact.attrs[name];
+      if (acc.componentType !== 5126 || ext.attributes[name] === undefined) continue;
+      const tuples = new Set();
+      for (let v = 0; v < acc.count; v++) tuples.add(Array.from(acc.array.slice(v * acc.size, v * acc.size + acc.size)).join(','));
+      const w = stream.read(ext.attributes[name]);
+      let off = 0;
+      for (let v = 0; v < stream.points; v++) if (!tuples.has(Array.from(w.values.slice(v * w.components, (v + 1) * w.components)).join(','))) off++;
+      if (off) problems.push(`${label}: ${off} of ${stream.points} decoded ${name} tuples are not exact input tuples (weights must be lossless)`);
+    }
     return { problems, decoded: { positions: decodedPos, faces: stream.faces, maxMove: match.maxMove } };
   } finally {
     freeStream(stream);

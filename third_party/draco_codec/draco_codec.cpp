@@ -199,7 +199,7 @@ extern "C" int draco_encode_mesh(uint32_t point_count, const uint32_t *indices, 
         encoder.SetEncodingMethod(options->sequential ? draco::MESH_SEQUENTIAL_ENCODING : draco::MESH_EDGEBREAKER_ENCODING);
         for (size_t a = 0; a < attribute_count; ++a) {
             const draco_encode_attribute &in = attributes[a];
-            if (in.gltf_component_type != 5126) continue; // integers: lossless
+            if (in.gltf_component_type != 5126 || in.quantization_bits == 0) continue; // lossless
             if (in.explicit_grid)
                 encoder.SetAttributeExplicitQuantization(ids[a], in.quantization_bits, in.components, in.origin, in.range);
             else

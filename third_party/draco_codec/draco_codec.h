@@ -55,8 +55,9 @@ typedef struct draco_encode_attribute {
     int normalized;          /* 0 or 1, as the glTF accessor says */
     int components;          /* 1..4 */
     const void *values;      /* point_count * components values, tightly packed */
-    /* Float attributes only: quantization bits (1..30). Integer attributes are
-     * always stored losslessly (their bits are ignored). */
+    /* Float attributes only: quantization bits (1..30), or 0 to store the
+     * values losslessly. Integer attributes are always stored losslessly
+     * (their bits are ignored). */
     int quantization_bits;
     /* Float attributes only: 1 = quantize on the grid given here instead of
      * the one Draco would derive from the values: grid point i on axis c is
