@@ -25,23 +25,48 @@
 
 #define FLOAT_SLACK (1.0 / 1048576.0) /* 2^-20 */
 
+/* Draco keeps an explicit grid's origin and range in its options as text,
+ * std::to_string's six decimals, and parses them back with atof: the grid it
+ * encodes with is (float)atof("%f" of the value). A range of 3.5e-8 became 0
+ * (every position decoded to one point) and any origin moved by up to 5e-7,
+ * so the grid is chosen among the values that survive that text exactly. */
+static float as_draco_text(float x)
+{
+    char text[64];
+    snprintf(text, sizeof text, "%f", (double)x);
+    return (float)atof(text);
+}
+
+/* The largest (down) or smallest (up) value that survives Draco's text
+ * unchanged and is <= x (down) or >= x (up). */
+static float draco_text_value(double x, int up)
+{
+    float v = as_draco_text((float)x);
+    for (int step = 0; step < 64 && (up ? (double)v < x : (double)v > x); ++step) {
+        float next = as_draco_text(v + (up ? 1e-6f : -1e-6f));
+        v = next != v ? next : nextafterf(v, up ? INFINITY : -INFINITY);
+    }
+    return v;
+}
+
 void dracoout_grid_of(const double lo[3], const double hi[3], int bits, dracoout_grid *g)
 {
     memset(g, 0, sizeof *g);
     g->bits = bits;
     double extent = 0;
+    int origin_exact = 1;
     for (int c = 0; c < 3; ++c) {
-        g->origin[c] = (float)lo[c]; /* lo is a float value: exact */
-        if (hi[c] - lo[c] > extent) extent = hi[c] - lo[c];
+        g->origin[c] = draco_text_value(lo[c], 0);
+        origin_exact &= (double)g->origin[c] == lo[c];
+        if (hi[c] - (double)g->origin[c] > extent) extent = hi[c] - (double)g->origin[c];
     }
-    if (!(extent > 0)) {
+    if (!(extent > 0) && origin_exact) {
         /* every vertex is the origin: it quantizes to 0 and decodes to
          * fl(fl(0 * D) + o) = o exactly, whatever the range */
         g->range = 1.0f;
         return;
     }
-    float range = (float)extent;
-    if ((double)range < extent) range = nextafterf(range, INFINITY); /* every value inside [o, o + r] */
+    float range = draco_text_value(extent > 0 ? extent : 1.0, 1); /* every value inside [o, o + r] */
     g->range = range;
     const double step = (double)range / (double)((1u << bits) - 1u);
     double sum = 0;

@@ -99,6 +99,19 @@ static void test_bound_is_tight_on_coarse_grids(void)
     }
 }
 
+/* Draco stores an explicit grid's origin and range as six-decimal text: a
+ * box of 3.5e-8 had range 0 (every point decoded to one), and an origin with
+ * more decimals moved. The grid must be one the text keeps exactly. */
+static void test_bound_holds_for_tiny_and_off_lattice_boxes(void)
+{
+    const double cases[][2] = {{1e-8, 3.5e-8}, {0.123456789, 1e-5}, {-7.654321987, 2e-4}, {3e-12, 1e-11}};
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
+        double share;
+        double worst = worst_share(cases[k][0], cases[k][1], 14, &share);
+        CHECK(worst <= 1.0, "center %g extent %g: worst error %.3g x its axis bound", cases[k][0], cases[k][1], worst);
+    }
+}
+
 static void test_single_point_has_no_error(void)
 {
     double p[3] = {3.5, -2.0, 1e6};
@@ -109,7 +122,7 @@ static void test_single_point_has_no_error(void)
 
 static void test_grid_contains_the_box(void)
 {
-    double lo[3] = {0.1, -3.0, 7.0}, hi[3] = {0.30000001192092896, 5.0, 7.25};
+    double lo[3] = {(double)0.1f, -3.0, 7.0}, hi[3] = {0.30000001192092896, 5.0, 7.25}; /* float values */
     dracoout_grid g;
     dracoout_grid_of(lo, hi, 12, &g);
     for (int c = 0; c < 3; ++c) {
@@ -128,6 +141,7 @@ int main(void)
 {
     RUN(test_bound_holds_for_every_bit_count);
     RUN(test_bound_is_tight_on_coarse_grids);
+    RUN(test_bound_holds_for_tiny_and_off_lattice_boxes);
     RUN(test_single_point_has_no_error);
     RUN(test_grid_contains_the_box);
     return check_summary();
