@@ -865,7 +865,12 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
             break;
         }
         const double added = o->added_error ? o->added_error[kept[k] + 1] : 0.0;
-        out->levels[k] = (lodchain_level){kept[k] + 1, lod, level->triangle_count, level->eps, level->bound + added, added};
+        /* A coarser level records no smaller error than the finer one (a
+         * larger bound is still a true one): switching distances and
+         * MSFT_screencoverage then run the way clients expect. */
+        const double finer = k ? out->levels[k - 1].error : o->added_error ? o->added_error[0] : 0.0;
+        const double error = level->bound + added > finer ? level->bound + added : finer;
+        out->levels[k] = (lodchain_level){kept[k] + 1, lod, level->triangle_count, level->eps, error, added};
         out->level_count = k + 1;
     }
     for (uint32_t n = 0; n < s->node_count && !rc; ++n) {

@@ -847,8 +847,13 @@ static int cmd_check(const cli *c)
     printf("%-6s %-6s %-6s %-10s %-14s %-14s %s\n", "node", "level", "mesh", "triangles", "recorded", "measured", "ok");
     for (uint32_t n = 0; n < s.node_count && !rc; ++n) {
         const scene_node *node = &s.nodes[n];
-        if (!node->lod_count || node->mesh < 0) continue;
+        if (!node->lod_count) continue;
         chains++;
+        if (node->mesh < 0) { /* a chain without its finest level */
+            printf("%-6u %-6u %-6s %-10s %-14s %-14s %s\n", n, 0, "-", "-", "-", "-", "NO: the node has MSFT_lod but no mesh");
+            failed = 1;
+            continue;
+        }
         const scene_mesh *base = &s.meshes[node->mesh];
         float *bp = NULL, *lp = NULL;
         uint32_t *bt = NULL, *lt = NULL;
@@ -866,6 +871,12 @@ static int cmd_check(const cli *c)
         char lod0_pointer[128];
         snprintf(lod0_pointer, sizeof lod0_pointer, "/nodes/%u/extras/lodpipe/levels/0/error", n);
         if (recorded_number(s.doc, lod0_pointer, &lod0_error) != 0 || !(lod0_error >= 0)) lod0_error = 0;
+        /* MSFT_lod lists levels from finest to coarsest, each shown in the
+         * node's place: fewer triangles and no smaller recorded error than
+         * the level before, and the node's own transform */
+        uint32_t previous_triangles = a.triangle_count;
+        double previous_error = lod0_error, local[16], lod_local[16];
+        scene_local_transform(&s, n, local);
         for (uint32_t k = 0; k < node->lod_count && !rc; ++k) {
             const scene_node *lod = &s.nodes[node->lod_ids[k]];
             char pointer[128];
@@ -873,7 +884,8 @@ static int cmd_check(const cli *c)
             snprintf(pointer, sizeof pointer, "/nodes/%u/extras/lodpipe/levels/%u/error", n, k + 1);
             int have = recorded_number(s.doc, pointer, &recorded) == 0;
             if (lod->mesh < 0) {
-                printf("%-6u %-6u %-6s %-10s %-14s %-14s %s\n", n, k + 1, "-", "-", "-", "-", "no mesh");
+                printf("%-6u %-6u %-6s %-10s %-14s %-14s %s\n", n, k + 1, "-", "-", "-", "-", "NO: the level has no mesh");
+                failed = 1;
                 continue;
             }
             free(lp);
@@ -887,15 +899,24 @@ static int cmd_check(const cli *c)
             double measured = measure_two_sided_with(&a, &a_tree, &b, spacing);
             const double allowed = recorded + lod0_error;
             int ok = have && measured >= 0 && measured <= allowed * (1 + 1e-9) + 1e-12 * base->diagonal;
-            if (have && !ok) failed = 1;
+            scene_local_transform(&s, (uint32_t)node->lod_ids[k], lod_local);
+            const char *order = b.triangle_count >= previous_triangles ? "NO: not fewer triangles than the level before"
+                                : have && recorded < previous_error   ? "NO: a smaller recorded error than the level before"
+                                : memcmp(local, lod_local, sizeof local) != 0 ? "NO: the LOD node's transform is not its node's"
+                                                                              : NULL;
+            if ((have && !ok) || order) failed = 1;
+            previous_triangles = b.triangle_count;
+            if (have) previous_error = recorded;
             char rec[32] = "-", got[32] = "-";
             if (have) snprintf(rec, sizeof rec, "%.8g", recorded);
             if (measured >= 0) snprintf(got, sizeof got, "%.8g", measured);
             /* no triangles on one side: nothing within any distance of the other */
-            const char *verdict = !have ? "not recorded"
-                                  : ok  ? "yes"
-                                  : measured < 0 ? (a.triangle_count ? "NO: the level has no triangles" : "NO: LOD0 has no triangles")
-                                                 : "NO: exceeds the recorded error";
+            const char *verdict = have && !ok && measured < 0
+                                      ? (a.triangle_count ? "NO: the level has no triangles" : "NO: LOD0 has no triangles")
+                                  : have && !ok ? "NO: exceeds the recorded error"
+                                  : order       ? order
+                                  : !have       ? "not recorded"
+                                                : "yes";
             printf("%-6u %-6u %-6lld %-10u %-14s %-14s %s\n", n, k + 1, (long long)lod->mesh, b.triangle_count, rec, got,
                    verdict);
         }
@@ -910,7 +931,7 @@ static int cmd_check(const cli *c)
     scene_free(&s);
     if (rc) return rc;
     if (failed) {
-        lp_say("%s: a measured distance exceeds its recorded error", in);
+        lp_say("%s: a level fails its check (a row marked NO)", in);
         return LP_PROMISE;
     }
     return LP_OK;

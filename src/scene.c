@@ -69,6 +69,13 @@ double scene_max_scale(const double m[16])
 
 /* ---- node graph -------------------------------------------------------------- */
 
+void scene_local_transform(const scene *s, uint32_t n, double out[16])
+{
+    gltf_node g;
+    gltf_get_node(s->doc, n, &g);
+    local_transform(&g, out);
+}
+
 /* Checks references, gives every node its parent, refuses cycles and absurd
  * depth, and computes world transforms root-down with an explicit stack. */
 static int load_nodes(scene *s, lp_error *err)

@@ -115,4 +115,8 @@ int scene_reload_mesh_data(scene *s, uint32_t mesh, lp_error *err);
  * of the first three columns). */
 double scene_max_scale(const double m[16]);
 
+/* Node n's own transform (its matrix, or its TRS), column-major, as the
+ * document holds it now. */
+void scene_local_transform(const scene *s, uint32_t n, double out[16]);
+
 #endif

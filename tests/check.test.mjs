@@ -97,3 +97,44 @@ test('check: MSFT_lod.ids not an array -> exit 2; a level without triangles -> e
   assert.equal(points.status, 3, describeRun(points));
   assert.match(points.stdout, new RegExp(`^${victim}\\s+1\\s+\\d+\\s+0\\s+\\S+\\s+-\\s+NO: the level has no triangles`, 'm'));
 });
+
+// A gate must also refuse a chain a client cannot switch on as recorded (QA): a LOD node or a chained node
+// without a mesh, levels listed coarsest first (each consistent with its own record), a LOD node drawn
+// elsewhere. Each was "yes"/"no mesh" with exit 0.
+test('check: chains a client cannot switch on as recorded -> exit 3, each row named', { skip }, (t) => {
+  const dir = tempDir(t);
+  const out = path.join(dir, 'scene.glb');
+  const made = runLodpipe([scene, '-o', out, '--quiet']);
+  assert.equal(made.status, 0, describeRun(made));
+  const bytes = fs.readFileSync(out);
+  let victim = -1;
+  const edit = (name, change) => {
+    const f = path.join(dir, name);
+    fs.writeFileSync(f, rewriteGlb(bytes, (json) => {
+      victim = json.nodes.findIndex((node) => node.extensions?.MSFT_lod?.ids?.length > 1);
+      change(json, json.nodes[victim]);
+    }));
+    return runLodpipe(['check', f]);
+  };
+  const cases = [
+    ['lod_without_mesh.glb', (json, node) => { delete json.nodes[node.extensions.MSFT_lod.ids[0]].mesh; },
+      (v) => `^${v}\\s+1\\s+-\\s+.*NO: the level has no mesh`],
+    ['node_without_mesh.glb', (json, node) => { delete node.mesh; },
+      (v) => `^${v}\\s+0\\s+-\\s+.*NO: the node has MSFT_lod but no mesh`],
+    ['swapped.glb', (json, node) => {
+      const ids = node.extensions.MSFT_lod.ids;
+      const levels = node.extras.lodpipe.levels;
+      [ids[0], ids[1]] = [ids[1], ids[0]];
+      [levels[1], levels[2]] = [levels[2], levels[1]];
+    }, (v) => `^${v}\\s+2\\s+.*NO: not fewer triangles than the level before`],
+    ['moved.glb', (json, node) => { json.nodes[node.extensions.MSFT_lod.ids[0]].translation = [1, 0, 0]; },
+      (v) => `^${v}\\s+1\\s+.*NO: the LOD node's transform is not its node's`],
+  ];
+  for (const [name, change, row] of cases) {
+    const r = edit(name, change);
+    assert.deepEqual(runHealthProblems(r), [], describeRun(r));
+    assert.equal(r.status, 3, `${name}: ${describeRun(r)}`);
+    assert.deepEqual(oneLineErrorProblems(r.stderr), [], describeRun(r));
+    assert.match(r.stdout, new RegExp(row(victim), 'm'), `${name}: ${r.stdout}`);
+  }
+});
