@@ -377,9 +377,13 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
     jsonw_free(&j);
     if (lod < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
     char from[96], to[96];
-    snprintf(from, sizeof from, "/meshes/%u/weights", m);
-    snprintf(to, sizeof to, "/meshes/%lld/weights", (long long)lod);
-    gltf_copy_json(s->doc, from, to);
+    /* the mesh's own properties: default morph weights, and extras and
+     * extensions (extras.targetNames names the morph targets for clients) */
+    for (const char *const *key = (const char *const[]){"weights", "extras", "extensions", NULL}; *key; ++key) {
+        snprintf(from, sizeof from, "/meshes/%u/%s", m, *key);
+        snprintf(to, sizeof to, "/meshes/%lld/%s", (long long)lod, *key);
+        gltf_copy_json(s->doc, from, to);
+    }
     uint32_t written = 0;
     for (uint32_t p = 0; p < mesh->primitive_count; ++p) {
         const scene_primitive *pr = &mesh->primitives[p];
@@ -578,6 +582,53 @@ static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64
         gltf_copy_json(s->doc, from, to);
     }
     return id;
+}
+
+/* Channel c of animation a drives mesh M's default morph weights through a
+ * KHR_animation_pointer "/meshes/M/weights": M, else -1. */
+static int64_t channel_mesh_weights(const scene *s, size_t a, size_t c)
+{
+    gltf_channel ch;
+    if (gltf_get_channel(s->doc, a, c, &ch) != 0 || !ch.pointer || strcmp(ch.path, "pointer") != 0 ||
+        strncmp(ch.pointer, "/meshes/", 8) != 0)
+        return -1;
+    const char *p = ch.pointer + 8, *digits = p;
+    long long m = 0;
+    while (*p >= '0' && *p <= '9' && m < (1LL << 40)) m = m * 10 + (*p++ - '0');
+    if (p == digits || (*digits == '0' && p - digits > 1) || strcmp(p, "/weights") != 0) return -1;
+    return m;
+}
+
+/* The channels that animate mesh m's default morph weights by pointer, copied
+ * once for each of its LOD meshes (which copied those weights): a client
+ * showing a level would otherwise freeze the morph. Appended, same sampler. */
+static int follow_mesh_weights(scene *s, uint32_t m, const lodchain_level *levels, uint32_t level_count, lp_error *err)
+{
+    for (size_t a = 0; a < gltf_count(s->doc, GLTF_ANIMATIONS); ++a) {
+        const size_t channels = gltf_channel_count(s->doc, a);
+        size_t appended = 0;
+        for (size_t c = 0; c < channels; ++c) {
+            if (channel_mesh_weights(s, a, c) != (int64_t)m) continue;
+            char pointer[160];
+            snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu", a, c);
+            char *channel = gltf_get_json(s->doc, pointer);
+            if (!channel) return lp_fail(err, LP_INVALID, "out of memory");
+            for (uint32_t k = 0; k < level_count; ++k) {
+                char to[128], value[64];
+                snprintf(to, sizeof to, "/animations/%zu/channels/-", a);
+                snprintf(pointer, sizeof pointer,
+                         "/animations/%zu/channels/%zu/target/extensions/KHR_animation_pointer/pointer", a,
+                         channels + appended++);
+                snprintf(value, sizeof value, "\"/meshes/%lld/weights\"", (long long)levels[k].mesh);
+                if (gltf_set_json(s->doc, to, channel) != 0 || gltf_set_json(s->doc, pointer, value) != 0) {
+                    free(channel);
+                    return lp_fail(err, LP_INVALID, "cannot add an animation channel for a LOD mesh");
+                }
+            }
+            free(channel);
+        }
+    }
+    return LP_OK;
 }
 
 /* The animation channels that move document node `node` (translation,
@@ -873,6 +924,7 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
         out->levels[k] = (lodchain_level){kept[k] + 1, lod, level->triangle_count, level->eps, error, added};
         out->level_count = k + 1;
     }
+    if (!rc) rc = follow_mesh_weights(s, m, out->levels, out->level_count, err);
     for (uint32_t n = 0; n < s->node_count && !rc; ++n) {
         if (s->nodes[n].mesh != (int64_t)m) continue;
         if (s->nodes[n].lod_count) {

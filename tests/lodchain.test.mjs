@@ -529,6 +529,39 @@ test('KHR_node_visibility and KHR_animation_pointer: LOD nodes hidden and animat
   });
 });
 
+// A mesh's own properties and its animated morph weights (QA): extras.targetNames (how three.js and Babylon.js
+// name morph targets), a mesh-level extension and default weights come along to every LOD mesh, and a
+// KHR_animation_pointer channel on "/meshes/M/weights" is copied once per LOD mesh (else the morph freezes
+// at coarse levels). The chain checker requires both (lodprims, chain).
+test('mesh extras, extensions and "/meshes/M/weights" pointer channels follow to every LOD mesh', { skip: skipRuns }, async (t) => {
+  const input = cowVariant(tempDir(t), 'cow_morph_pointer.gltf', (j, node, addAccessor) => {
+    const mesh = j.meshes[0];
+    const count = j.accessors[mesh.primitives[0].attributes.POSITION].count;
+    const lift = addAccessor([...Array(count)].flatMap(() => [0, 0.01, 0]), 'VEC3', count);
+    for (const p of mesh.primitives) p.targets = [{ POSITION: lift }];
+    mesh.weights = [0];
+    mesh.extras = { targetNames: ['lift'] };
+    mesh.extensions = { EXT_lodpipe_test_mesh: { kept: true } };
+    const times = addAccessor([0, 1], 'SCALAR', 2);
+    const weights = addAccessor([0, 1], 'SCALAR', 2);
+    j.animations = [{ name: 'lift', samplers: [{ input: times, output: weights }],
+      channels: [{ sampler: 0, target: { path: 'pointer', extensions: { KHR_animation_pointer: { pointer: '/meshes/0/weights' } } } }] }];
+    j.extensionsUsed = [...(j.extensionsUsed || []), 'KHR_animation_pointer', 'EXT_lodpipe_test_mesh'];
+  });
+  const run = await checkedStructure(t, input, 'cow with a morph animated by pointer', 'the main job');
+  await t.test('each LOD mesh: the same extras, extension and weights; one pointer channel each', () => {
+    const j = readRaw(run.out).json;
+    const ids = j.nodes.find((n) => n.extensions?.MSFT_lod)?.extensions.MSFT_lod.ids || [];
+    assert.ok(ids.length > 0, 'a chain');
+    const pointers = j.animations[0].channels.map((c) => c.target.extensions.KHR_animation_pointer.pointer);
+    assert.deepEqual(pointers, ['/meshes/0/weights', ...ids.map((id) => `/meshes/${j.nodes[id].mesh}/weights`)]);
+    for (const id of ids) {
+      const m = j.meshes[j.nodes[id].mesh];
+      assert.deepEqual([m.extras, m.extensions, m.weights], [{ targetNames: ['lift'] }, { EXT_lodpipe_test_mesh: { kept: true } }, [0]]);
+    }
+  });
+});
+
 // A mesh of the default scene that a node of another scene uses too (no corpus asset has one): the chain
 // goes on every node that uses the mesh (README "Output format"), so a client that switches scenes sees
 // it there as well, with switching distances for that node's own world scale.

@@ -1108,6 +1108,8 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
         return;
       }
       if ((lm.primitives || []).length !== prims.length) P('lodprims', `${lt}: ${(lm.primitives || []).length} primitives, the original has ${prims.length}`);
+      // the mesh's own default weights, extras (targetNames) and extensions come along
+      for (const key of ['weights', 'extras', 'extensions']) if (!deepEqual(lm[key], j.meshes[m][key])) P('lodprims', `${lt}: ${key} ${JSON.stringify(lm[key])}, the original's is ${JSON.stringify(j.meshes[m][key])}`);
       lm.primitives.slice(0, prims.length).forEach((lp, p) => {
         const op = prims[p];
         const pt = `${lt} primitive ${p}`;
@@ -1261,16 +1263,34 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
   nodes.forEach((n, i) => (n.extensions?.MSFT_lod?.ids || []).forEach((id) => { if (id >= nInNodes) lodOwner.set(id, i); }));
   // (by target node and path, or by a KHR_animation_pointer "/nodes/N/..." pointer; KHR_node_visibility too)
   const FOLLOWED = ['translation', 'rotation', 'scale', 'weights', 'extensions/KHR_node_visibility/visible'];
+  // a pointer "/meshes/M/weights" (a mesh's default morph weights) is copied once per LOD mesh of M
+  const lodMeshOwner = new Map();
+  nodes.forEach((n) => (n.extensions?.MSFT_lod?.ids || []).forEach((id) => {
+    if (n.mesh !== undefined && nodes[id]?.mesh >= nInMeshes) lodMeshOwner.set(nodes[id].mesh, n.mesh);
+  }));
+  const meshWeights = (ch) => {
+    const m = ch?.target?.path === 'pointer' && /^\/meshes\/(\d+)\/weights$/.exec(ch.target.extensions?.KHR_animation_pointer?.pointer ?? '');
+    return m ? Number(m[1]) : undefined;
+  };
   (j.animations || []).forEach((an, ai) => {
     const channels = an.channels || [];
-    const isCopy = (ch) => lodOwner.has(channelTarget(ch).node);
+    const isCopy = (ch) => lodOwner.has(channelTarget(ch).node) || lodMeshOwner.has(meshWeights(ch));
     const own = channels.filter((ch) => !isCopy(ch));
     const copies = channels.filter(isCopy);
     if (channels.slice(own.length).some((ch) => !isCopy(ch))) {
       P('unchanged', `/animations/${ai}: the channels for LOD nodes are not all after the input's channels`);
     }
     const same = (x, y) => x.sampler === y.sampler && x.target?.path === y.target?.path && channelTarget(x).prop === channelTarget(y).prop;
-    for (const ch of copies) {
+    for (const ch of copies.filter((c) => meshWeights(c) !== undefined)) {
+      const owner = lodMeshOwner.get(meshWeights(ch));
+      if (!own.some((o) => meshWeights(o) === owner && o.sampler === ch.sampler)) P('unchanged', `/animations/${ai}: a channel for LOD mesh ${meshWeights(ch)} (sampler ${ch.sampler}) copies no channel of its mesh ${owner}`);
+    }
+    for (const o of own.filter((c) => meshWeights(c) !== undefined)) {
+      for (const [M, owner] of lodMeshOwner) {
+        if (owner === meshWeights(o) && !copies.some((ch) => meshWeights(ch) === M && ch.sampler === o.sampler)) P('chain', `/animations/${ai}: LOD mesh ${M} does not follow mesh ${owner}'s weights channel (sampler ${o.sampler})`);
+      }
+    }
+    for (const ch of copies.filter((c) => meshWeights(c) === undefined)) {
       const { node: id, prop } = channelTarget(ch);
       const owner = lodOwner.get(id);
       if (!own.some((o) => channelTarget(o).node === owner && same(o, ch))) P('unchanged', `/animations/${ai}: a channel for LOD node ${id} (sampler ${ch.sampler}, ${prop}) copies no channel of its node ${owner}`);
