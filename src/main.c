@@ -304,6 +304,18 @@ static dracoout_options draco_options_of(const cli *c)
 }
 
 /* convert --draco: every mesh of the default scene Draco-compressed as it is. */
+/* How many nodes use mesh m with an MSFT_lod chain, and how many without. */
+static void count_mesh_nodes(const scene *s, uint32_t m, uint32_t *chained, uint32_t *plain)
+{
+    *chained = *plain = 0;
+    for (uint32_t n = 0; n < s->node_count; ++n)
+        if (s->nodes[n].mesh == (int64_t)m) ++*(s->nodes[n].lod_count ? chained : plain);
+}
+
+/* convert --draco: every mesh of the default scene compressed as it is. A
+ * mesh that carries a chain is left uncompressed: its recorded errors (and
+ * the check's allowance, LOD0's recorded error) are for its present geometry,
+ * and quantizing it would make them false. */
 static int draco_lod0_only(const cli *c, const char *in, scene *s)
 {
     dracoout_options o = draco_options_of(c);
@@ -312,6 +324,15 @@ static int draco_lod0_only(const cli *c, const char *in, scene *s)
     int rc = LP_OK;
     for (uint32_t m = 0; m < s->mesh_count && !rc; ++m) {
         if (!s->meshes[m].instance_count || !s->meshes[m].triangle_count) continue;
+        uint32_t chained, plain;
+        count_mesh_nodes(s, m, &chained, &plain);
+        if (chained) {
+            if (!c->quiet)
+                lp_say("%s: warning: meshes[%u] has LOD chains; left uncompressed (their recorded errors are for its "
+                       "present geometry: compress with the main job's --draco from the original)",
+                       in, m);
+            continue;
+        }
         dracoout_plan plan;
         rc = dracoout_plan_mesh(s, m, NULL, NULL, 0, &o, o.position_bits, &plan, &err);
         if (!rc) rc = dracoout_write_mesh(s, m, NULL, &o, &plan, &stats, &err);
@@ -664,13 +685,6 @@ static int draco_encode_all(scene *s, const draco_job *jobs, uint32_t count, con
 /* 1 when some node that uses mesh m has no MSFT_lod yet: lodchain_write
  * leaves a node that has one as it is, so for a mesh whose every node has one
  * (a file lodpipe already wrote) new levels would only be unused meshes. */
-static int mesh_has_unchained_node(const scene *s, uint32_t m)
-{
-    for (uint32_t n = 0; n < s->node_count; ++n)
-        if (s->nodes[n].mesh == (int64_t)m && !s->nodes[n].lod_count) return 1;
-    return 0;
-}
-
 /* The main job: every mesh of the default scene through the certified ladder
  * into an MSFT_lod chain, the document written to OUT all at once. */
 static int cmd_lod(const cli *c)
@@ -713,10 +727,12 @@ static int cmd_lod(const cli *c)
     for (uint32_t m = 0; m < s.mesh_count && !rc; ++m) {
         const scene_mesh *mesh = &s.meshes[m];
         if (!mesh->instance_count || !mesh->triangle_count) continue;
-        if (!mesh_has_unchained_node(&s, m)) {
+        uint32_t chained, plain;
+        count_mesh_nodes(&s, m, &chained, &plain);
+        if (!plain) {
             if (!c->quiet)
-                lp_say("%s: warning: meshes[%u]: every node that uses it already has MSFT_lod; "
-                                "left as it is", in, m);
+                lp_say("%s: warning: meshes[%u]: every node that uses it already has MSFT_lod; left as it is%s", in, m,
+                       draco ? ", uncompressed (--draco compresses the chains it makes)" : "");
             continue;
         }
         weld_result w;

@@ -555,3 +555,23 @@ test('exit 3 with one line when float32 cannot resolve the quantization within e
   assert.equal(r.stderr.trim().split('\n').length, 1, 'one line');
   assert.ok(!fs.existsSync(out), 'no output');
 });
+
+// convert --draco on a file with chains (QA): quantizing a chained mesh would make its recorded errors false
+// (LOD0's stayed 0 while LOD0 moved), so such meshes are left uncompressed, with a warning; check passes.
+test('convert --draco leaves chained meshes uncompressed (their recorded errors stay true)', { skip }, () => {
+  const wd = fs.mkdtempSync(path.join(workDir(), 'c-'));
+  const plain = path.join(wd, 'plain.glb');
+  const made = runLodpipe([DEFAULT_SCENE, '-o', plain, '-q'], { timeout: TIMEOUT_MS });
+  assert.equal(made.status, 0, describeRun(made));
+  const out = path.join(wd, 'converted.glb');
+  const r = runLodpipe(['convert', plain, out, '--draco'], { timeout: TIMEOUT_MS });
+  assert.equal(r.status, 0, describeRun(r));
+  assert.match(r.stderr, /meshes\[\d+\] has LOD chains; left uncompressed/);
+  const j = readRaw(out).json;
+  const chained = new Set();
+  for (const n of j.nodes) if (n.extensions?.MSFT_lod) [n, ...n.extensions.MSFT_lod.ids.map((id) => j.nodes[id])].forEach((x) => chained.add(x.mesh));
+  assert.ok(chained.size > 0, 'the file has chains');
+  for (const m of chained) assert.ok(j.meshes[m].primitives.every((p) => !p.extensions?.[DRACO]), `mesh ${m} compressed`);
+  const ck = runLodpipe(['check', out, '--quiet'], { timeout: TIMEOUT_MS });
+  assert.equal(ck.status, 0, describeRun(ck));
+});
