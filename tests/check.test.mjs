@@ -30,6 +30,21 @@ function rewriteGlb(bytes, edit) {
   return Buffer.concat([header, text, bin]);
 }
 
+/** The main job's output of the default scene, and a function that checks an edited copy of it. */
+function editableOutput(t) {
+  const dir = tempDir(t);
+  const out = path.join(dir, 'scene.glb');
+  const made = runLodpipe([scene, '-o', out, '--quiet']);
+  assert.equal(made.status, 0, describeRun(made));
+  const bytes = fs.readFileSync(out);
+  const checkEdited = (name, change) => {
+    const f = path.join(dir, name);
+    fs.writeFileSync(f, rewriteGlb(bytes, change));
+    return runLodpipe(['check', f]);
+  };
+  return checkEdited;
+}
+
 test('check: a real output passes, a shrunk recorded error is caught (exit 3)', { skip }, (t) => {
   const dir = tempDir(t);
   const out = path.join(dir, 'scene.glb');
@@ -73,16 +88,7 @@ test('check: a file without LOD chains says so and exits 0; a bad file is exit 2
 // "no LOD chains"; a level whose only primitive has no triangles cannot be within any distance of LOD0, and
 // says so instead of printing a measured -1.
 test('check: MSFT_lod.ids not an array -> exit 2; a level without triangles -> exit 3, named', { skip }, (t) => {
-  const dir = tempDir(t);
-  const out = path.join(dir, 'scene.glb');
-  const made = runLodpipe([scene, '-o', out, '--quiet']);
-  assert.equal(made.status, 0, describeRun(made));
-  const bytes = fs.readFileSync(out);
-  const edit = (name, change) => {
-    const f = path.join(dir, name);
-    fs.writeFileSync(f, rewriteGlb(bytes, change));
-    return runLodpipe(['check', f]);
-  };
+  const edit = editableOutput(t);
   const chained = (json) => json.nodes.findIndex((node) => node.extensions?.MSFT_lod?.ids?.length);
   const ids = edit('ids.glb', (json) => { json.nodes[chained(json)].extensions.MSFT_lod.ids = 'x'; });
   assert.equal(ids.status, 2, describeRun(ids));
@@ -102,20 +108,12 @@ test('check: MSFT_lod.ids not an array -> exit 2; a level without triangles -> e
 // without a mesh, levels listed coarsest first (each consistent with its own record), a LOD node drawn
 // elsewhere. Each was "yes"/"no mesh" with exit 0.
 test('check: chains a client cannot switch on as recorded -> exit 3, each row named', { skip }, (t) => {
-  const dir = tempDir(t);
-  const out = path.join(dir, 'scene.glb');
-  const made = runLodpipe([scene, '-o', out, '--quiet']);
-  assert.equal(made.status, 0, describeRun(made));
-  const bytes = fs.readFileSync(out);
+  const checkEdited = editableOutput(t);
   let victim = -1;
-  const edit = (name, change) => {
-    const f = path.join(dir, name);
-    fs.writeFileSync(f, rewriteGlb(bytes, (json) => {
-      victim = json.nodes.findIndex((node) => node.extensions?.MSFT_lod?.ids?.length > 1);
-      change(json, json.nodes[victim]);
-    }));
-    return runLodpipe(['check', f]);
-  };
+  const edit = (name, change) => checkEdited(name, (json) => {
+    victim = json.nodes.findIndex((node) => node.extensions?.MSFT_lod?.ids?.length > 1);
+    change(json, json.nodes[victim]);
+  });
   const cases = [
     ['lod_without_mesh.glb', (json, node) => { delete json.nodes[node.extensions.MSFT_lod.ids[0]].mesh; },
       (v) => `^${v}\\s+1\\s+-\\s+.*NO: the level has no mesh`],
