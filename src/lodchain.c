@@ -540,13 +540,13 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
     snprintf(value, sizeof value, "%lld", (long long)carrier);
     if (gltf_set_json(s->doc, to, value) != 0) return lp_fail(err, LP_INVALID, "cannot add a child to nodes[%u]", n), -1;
     /* morph weight animations follow the mesh */
-    int64_t node;
-    char property[64];
-    for (size_t a = 0; a < gltf_count(s->doc, GLTF_ANIMATIONS); ++a)
-        for (size_t c = 0; channel_target(s, a, c, &node, property) == 0; ++c)
-            if (node == (int64_t)n && strcmp(property, "weights") == 0 && retarget_channel(s, a, c, carrier, property) != 0)
-                return lp_fail(err, LP_INVALID, "cannot retarget an animation channel to nodes[%lld]", (long long)carrier),
-                       -1;
+    for (size_t i = 0; i < s->channel_count; ++i) {
+        scene_channel *e = &s->channels[i];
+        if (e->node != (int64_t)n || strcmp(e->property, "weights") != 0) continue;
+        if (retarget_channel(s, e->animation, e->channel, carrier, e->property) != 0)
+            return lp_fail(err, LP_INVALID, "cannot retarget an animation channel to nodes[%lld]", (long long)carrier), -1;
+        e->node = carrier;
+    }
     return carrier;
 }
 
@@ -599,34 +599,58 @@ static int64_t channel_mesh_weights(const scene *s, size_t a, size_t c)
     return m;
 }
 
+/* s->channels: every channel of the input, read once (channels appended for
+ * LOD nodes and meshes never need following). */
+static int index_channels(scene *s, lp_error *err)
+{
+    if (s->channels) return LP_OK;
+    size_t total = 0;
+    const size_t animations = gltf_count(s->doc, GLTF_ANIMATIONS);
+    for (size_t a = 0; a < animations; ++a) total += gltf_channel_count(s->doc, a);
+    s->channels = calloc(total + 1, sizeof *s->channels);
+    if (!s->channels) return lp_fail(err, LP_INVALID, "out of memory");
+    for (size_t a = 0; a < animations; ++a)
+        for (size_t c = 0; c < gltf_channel_count(s->doc, a); ++c) {
+            scene_channel *e = &s->channels[s->channel_count++];
+            e->animation = (uint32_t)a;
+            e->channel = (uint32_t)c;
+            channel_target(s, a, c, &e->node, e->property);
+            e->mesh_weights = channel_mesh_weights(s, a, c);
+        }
+    return LP_OK;
+}
+
+/* Appends to its animation a copy of indexed channel e, pointed at `target`
+ * (a node, or with `mesh` a mesh's weights): same sampler and property. */
+static int append_channel_copy(scene *s, const scene_channel *e, int64_t target, int mesh)
+{
+    char pointer[160], to[128];
+    snprintf(pointer, sizeof pointer, "/animations/%u/channels/%u", e->animation, e->channel);
+    char *channel = gltf_get_json(s->doc, pointer);
+    if (!channel) return -1;
+    const size_t at = gltf_channel_count(s->doc, e->animation);
+    snprintf(to, sizeof to, "/animations/%u/channels/-", e->animation);
+    int rc = gltf_set_json(s->doc, to, channel);
+    free(channel);
+    if (rc != 0) return -1;
+    if (!mesh) return retarget_channel(s, e->animation, at, target, e->property);
+    char value[64];
+    snprintf(pointer, sizeof pointer, "/animations/%u/channels/%zu/target/extensions/KHR_animation_pointer/pointer",
+             e->animation, at);
+    snprintf(value, sizeof value, "\"/meshes/%lld/weights\"", (long long)target);
+    return gltf_set_json(s->doc, pointer, value);
+}
+
 /* The channels that animate mesh m's default morph weights by pointer, copied
  * once for each of its LOD meshes (which copied those weights): a client
  * showing a level would otherwise freeze the morph. Appended, same sampler. */
 static int follow_mesh_weights(scene *s, uint32_t m, const lodchain_level *levels, uint32_t level_count, lp_error *err)
 {
-    for (size_t a = 0; a < gltf_count(s->doc, GLTF_ANIMATIONS); ++a) {
-        const size_t channels = gltf_channel_count(s->doc, a);
-        size_t appended = 0;
-        for (size_t c = 0; c < channels; ++c) {
-            if (channel_mesh_weights(s, a, c) != (int64_t)m) continue;
-            char pointer[160];
-            snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu", a, c);
-            char *channel = gltf_get_json(s->doc, pointer);
-            if (!channel) return lp_fail(err, LP_INVALID, "out of memory");
-            for (uint32_t k = 0; k < level_count; ++k) {
-                char to[128], value[64];
-                snprintf(to, sizeof to, "/animations/%zu/channels/-", a);
-                snprintf(pointer, sizeof pointer,
-                         "/animations/%zu/channels/%zu/target/extensions/KHR_animation_pointer/pointer", a,
-                         channels + appended++);
-                snprintf(value, sizeof value, "\"/meshes/%lld/weights\"", (long long)levels[k].mesh);
-                if (gltf_set_json(s->doc, to, channel) != 0 || gltf_set_json(s->doc, pointer, value) != 0) {
-                    free(channel);
-                    return lp_fail(err, LP_INVALID, "cannot add an animation channel for a LOD mesh");
-                }
-            }
-            free(channel);
-        }
+    for (size_t i = 0; i < s->channel_count; ++i) {
+        if (s->channels[i].mesh_weights != (int64_t)m) continue;
+        for (uint32_t k = 0; k < level_count; ++k)
+            if (append_channel_copy(s, &s->channels[i], levels[k].mesh, 1) != 0)
+                return lp_fail(err, LP_INVALID, "cannot add an animation channel for a LOD mesh");
     }
     return LP_OK;
 }
@@ -639,27 +663,12 @@ static int follow_mesh_weights(scene *s, uint32_t m, const lodchain_level *level
  * sampler, appended after the channels the animation had. */
 static int follow_animations(scene *s, int64_t node, const int64_t *lod_nodes, uint32_t lod_count, lp_error *err)
 {
-    for (size_t a = 0; a < gltf_count(s->doc, GLTF_ANIMATIONS); ++a) {
-        int64_t target;
-        char property[64], pointer[128];
-        const size_t channels = gltf_channel_count(s->doc, a);
-        size_t appended = 0;
-        for (size_t c = 0; c < channels; ++c) {
-            if (channel_target(s, a, c, &target, property) != 0 || target != node || !followed_property(property)) continue;
-            snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu", a, c);
-            char *channel = gltf_get_json(s->doc, pointer);
-            if (!channel) return lp_fail(err, LP_INVALID, "out of memory");
-            for (uint32_t k = 0; k < lod_count; ++k) {
-                char to[128];
-                snprintf(to, sizeof to, "/animations/%zu/channels/-", a);
-                const size_t at = channels + appended++;
-                if (gltf_set_json(s->doc, to, channel) != 0 || retarget_channel(s, a, at, lod_nodes[k], property) != 0) {
-                    free(channel);
-                    return lp_fail(err, LP_INVALID, "cannot add an animation channel for a LOD node");
-                }
-            }
-            free(channel);
-        }
+    for (size_t i = 0; i < s->channel_count; ++i) {
+        const scene_channel *e = &s->channels[i];
+        if (e->node != node || !followed_property(e->property)) continue;
+        for (uint32_t k = 0; k < lod_count; ++k)
+            if (append_channel_copy(s, e, lod_nodes[k], 0) != 0)
+                return lp_fail(err, LP_INVALID, "cannot add an animation channel for a LOD node");
     }
     return LP_OK;
 }
@@ -885,8 +894,10 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
     const uint32_t level_count = lodchain_kept_levels(w, r, o->min_reduction, kept);
     if (level_count == 0) return LP_OK;
     const scene_mesh *mesh = &s->meshes[m];
+    int rc = index_channels(s, err); /* before any channel is added or retargeted */
+    if (rc) return rc;
     out->level_count = level_count; /* before the reorder: morphs are measured in the original order */
-    int rc = measure_morphs(s, m, w, r, kept, out, err);
+    rc = measure_morphs(s, m, w, r, kept, out, err);
     out->level_count = 0;
     if (rc) return rc;
     uint32_t **new_of_old = calloc(mesh->primitive_count + 1, sizeof *new_of_old);

@@ -621,6 +621,7 @@ void scene_free(scene *s)
     }
     free(s->meshes);
     free(s->nodes);
+    free(s->channels);
     gltf_free(s->doc);
     memset(s, 0, sizeof *s);
 }

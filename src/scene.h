@@ -72,6 +72,15 @@ typedef struct scene_node {
     const int64_t *lod_ids;
 } scene_node;
 
+/* One animation channel of the input, as the LOD chains follow it (filled
+ * and kept by lodchain.c, which alone edits channels). */
+typedef struct scene_channel {
+    uint32_t animation, channel;
+    int64_t node;         /* the node it animates, -1: none */
+    int64_t mesh_weights; /* the mesh whose default weights it drives by pointer, -1: none */
+    char property[64];    /* the node's property it drives ("translation", "weights", ...) */
+} scene_channel;
+
 typedef struct scene {
     gltf_doc *doc;
     int64_t default_scene; /* -1: the file has no scenes */
@@ -81,6 +90,10 @@ typedef struct scene {
     scene_node *nodes;
     uint32_t warning_count;
     char warnings[8][256]; /* the first few, for the CLI to print */
+    /* the input's animation channels, indexed once (not per chained mesh:
+     * scenes of thousands of animated meshes); NULL until lodchain needs them */
+    scene_channel *channels;
+    size_t channel_count;
 } scene;
 
 typedef struct scene_options {
