@@ -429,32 +429,44 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
 
 /* ---- nodes --------------------------------------------------------------------- */
 
+/* A KHR_animation_pointer pointer "/<array>/N/rest": N, and *rest after its
+ * slash; -1 when the pointer is not into that array (an index is decimal
+ * digits without a leading zero). */
+static long long pointer_into(const char *pointer, const char *array, const char **rest)
+{
+    const size_t len = strlen(array);
+    if (!pointer || pointer[0] != '/' || strncmp(pointer + 1, array, len) != 0 || pointer[len + 1] != '/') return -1;
+    const char *p = pointer + len + 2, *digits = p;
+    long long n = 0;
+    while (*p >= '0' && *p <= '9' && n < (1LL << 40)) n = n * 10 + (*p++ - '0');
+    if (p == digits || *p != '/' || (*digits == '0' && p - digits > 1)) return -1;
+    *rest = p + 1;
+    return n;
+}
+
 /* Channel c of animation a: the node it animates (-1: none) and the
  * property, as the node's JSON pointer suffix: the target's path
  * ("translation", "weights", ...), or for a KHR_animation_pointer channel
  * (path "pointer") what follows "/nodes/N/" in its pointer (e.g.
- * "extensions/KHR_node_visibility/visible"); at most 63 characters, else "".
- * Returns 0, or -1 when there is no channel c. */
-static int channel_target(const scene *s, size_t a, size_t c, int64_t *node, char property[64])
+ * "extensions/KHR_node_visibility/visible"); at most 63 characters, else "";
+ * and *mesh_weights: the mesh whose default weights it drives by a pointer
+ * "/meshes/M/weights", else -1. Returns 0, or -1 when there is no channel c. */
+static int channel_target(const scene *s, size_t a, size_t c, int64_t *node, char property[64], int64_t *mesh_weights)
 {
     gltf_channel ch;
     if (gltf_get_channel(s->doc, a, c, &ch) != 0) return -1;
     *node = ch.node;
+    *mesh_weights = -1;
     property[0] = 0;
     if (strlen(ch.path) < 64) strcpy(property, ch.path);
     if (strcmp(property, "pointer") != 0) return 0;
     property[0] = 0;
-    *node = -1;
-    const char *p = ch.pointer;
-    if (!p || strncmp(p, "/nodes/", 7) != 0) return 0;
-    p += 7;
-    const char *digits = p;
-    long long n = 0;
-    while (*p >= '0' && *p <= '9' && n < (1LL << 40)) n = n * 10 + (*p++ - '0');
-    /* a JSON pointer index: decimal digits, no leading zero */
-    if (p == digits || *p != '/' || (*digits == '0' && p - digits > 1) || strlen(p + 1) >= 64) return 0;
-    *node = n;
-    strcpy(property, p + 1);
+    const char *rest = NULL;
+    *node = pointer_into(ch.pointer, "nodes", &rest);
+    if (*node >= 0 && strlen(rest) < 64) strcpy(property, rest);
+    else *node = -1;
+    const long long mesh = pointer_into(ch.pointer, "meshes", &rest);
+    if (mesh >= 0 && strcmp(rest, "weights") == 0) *mesh_weights = mesh;
     return 0;
 }
 
@@ -584,21 +596,6 @@ static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64
     return id;
 }
 
-/* Channel c of animation a drives mesh M's default morph weights through a
- * KHR_animation_pointer "/meshes/M/weights": M, else -1. */
-static int64_t channel_mesh_weights(const scene *s, size_t a, size_t c)
-{
-    gltf_channel ch;
-    if (gltf_get_channel(s->doc, a, c, &ch) != 0 || !ch.pointer || strcmp(ch.path, "pointer") != 0 ||
-        strncmp(ch.pointer, "/meshes/", 8) != 0)
-        return -1;
-    const char *p = ch.pointer + 8, *digits = p;
-    long long m = 0;
-    while (*p >= '0' && *p <= '9' && m < (1LL << 40)) m = m * 10 + (*p++ - '0');
-    if (p == digits || (*digits == '0' && p - digits > 1) || strcmp(p, "/weights") != 0) return -1;
-    return m;
-}
-
 /* s->channels: every channel of the input, read once (channels appended for
  * LOD nodes and meshes never need following). */
 static int index_channels(scene *s, lp_error *err)
@@ -614,8 +611,7 @@ static int index_channels(scene *s, lp_error *err)
             scene_channel *e = &s->channels[s->channel_count++];
             e->animation = (uint32_t)a;
             e->channel = (uint32_t)c;
-            channel_target(s, a, c, &e->node, e->property);
-            e->mesh_weights = channel_mesh_weights(s, a, c);
+            channel_target(s, a, c, &e->node, e->property, &e->mesh_weights);
         }
     return LP_OK;
 }
