@@ -470,19 +470,20 @@ static int channel_target(const scene *s, size_t a, size_t c, int64_t *node, cha
     return 0;
 }
 
-/* Points channel c of animation a at document node `node` for the same
- * property (its target node, or its KHR_animation_pointer pointer). */
-static int retarget_channel(scene *s, size_t a, size_t c, int64_t node, const char *property)
+/* Points channel c of animation a at the same property of object `index` of
+ * `array` ("nodes", or "meshes" for a pointer to a mesh's weights): its
+ * KHR_animation_pointer pointer, or else its target node. */
+static int retarget_channel(scene *s, size_t a, size_t c, const char *array, int64_t index, const char *property)
 {
     gltf_channel ch;
     if (gltf_get_channel(s->doc, a, c, &ch) != 0) return -1;
     char pointer[160];
     if (ch.pointer) {
-        size_t len = strlen(property);
+        size_t len = strlen(array) + strlen(property);
         char *value = malloc(len + 32);
         jsonw j = {0};
         if (value) {
-            snprintf(value, len + 32, "/nodes/%lld/%s", (long long)node, property);
+            snprintf(value, len + 32, "/%s/%lld/%s", array, (long long)index, property);
             jsonw_string(&j, value);
         }
         snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/extensions/KHR_animation_pointer/pointer",
@@ -494,7 +495,7 @@ static int retarget_channel(scene *s, size_t a, size_t c, int64_t node, const ch
     }
     char value[32];
     snprintf(pointer, sizeof pointer, "/animations/%zu/channels/%zu/target/node", a, c);
-    snprintf(value, sizeof value, "%lld", (long long)node);
+    snprintf(value, sizeof value, "%lld", (long long)index);
     return gltf_set_json(s->doc, pointer, value);
 }
 
@@ -555,7 +556,7 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
     for (size_t i = 0; i < s->channel_count; ++i) {
         scene_channel *e = &s->channels[i];
         if (e->node != (int64_t)n || strcmp(e->property, "weights") != 0) continue;
-        if (retarget_channel(s, e->animation, e->channel, carrier, e->property) != 0)
+        if (retarget_channel(s, e->animation, e->channel, "nodes", carrier, e->property) != 0)
             return lp_fail(err, LP_INVALID, "cannot retarget an animation channel to nodes[%lld]", (long long)carrier), -1;
         e->node = carrier;
     }
@@ -629,12 +630,8 @@ static int append_channel_copy(scene *s, const scene_channel *e, int64_t target,
     int rc = gltf_set_json(s->doc, to, channel);
     free(channel);
     if (rc != 0) return -1;
-    if (!mesh) return retarget_channel(s, e->animation, at, target, e->property);
-    char value[64];
-    snprintf(pointer, sizeof pointer, "/animations/%u/channels/%zu/target/extensions/KHR_animation_pointer/pointer",
-             e->animation, at);
-    snprintf(value, sizeof value, "\"/meshes/%lld/weights\"", (long long)target);
-    return gltf_set_json(s->doc, pointer, value);
+    return mesh ? retarget_channel(s, e->animation, at, "meshes", target, "weights")
+                : retarget_channel(s, e->animation, at, "nodes", target, e->property);
 }
 
 /* The channels that animate mesh m's default morph weights by pointer, copied

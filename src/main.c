@@ -303,8 +303,9 @@ static dracoout_options draco_options_of(const cli *c)
     return o;
 }
 
-/* convert --draco: every mesh of the default scene Draco-compressed as it is. */
-/* How many nodes use mesh m with an MSFT_lod chain, and how many without. */
+/* How many nodes use mesh m with an MSFT_lod chain, and how many without:
+ * lodchain_write leaves a node that has one as it is, so a mesh with no plain
+ * node (a file lodpipe already wrote) would only gain unused level meshes. */
 static void count_mesh_nodes(const scene *s, uint32_t m, uint32_t *chained, uint32_t *plain)
 {
     *chained = *plain = 0;
@@ -682,9 +683,6 @@ static int draco_encode_all(scene *s, const draco_job *jobs, uint32_t count, con
     return rc;
 }
 
-/* 1 when some node that uses mesh m has no MSFT_lod yet: lodchain_write
- * leaves a node that has one as it is, so for a mesh whose every node has one
- * (a file lodpipe already wrote) new levels would only be unused meshes. */
 /* The main job: every mesh of the default scene through the certified ladder
  * into an MSFT_lod chain, the document written to OUT all at once. */
 static int cmd_lod(const cli *c)

@@ -424,12 +424,13 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
 }
 
 // An external buffer or image must be a regular file: a directory would be
-// "read" as an absurd size, a FIFO would block the run.
-void require_regular_file(const std::string &full, const std::string &what, const std::string &uri)
+// "read" as an absurd size, a FIFO would block the run. Returns its size.
+uint64_t require_regular_file(const std::string &full, const std::string &what, const std::string &uri)
 {
     struct stat st;
     if (stat(full.c_str(), &st) != 0) fail(GLTF_IO, what + ": cannot read \"" + uri + "\"");
     if (!S_ISREG(st.st_mode)) fail(GLTF_IO, what + ": cannot read \"" + uri + "\" (not a regular file)");
+    return uint64_t(st.st_size);
 }
 
 std::string dir_of(const std::string &path)
@@ -696,13 +697,11 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
                 if (!opt.allow_external_uris && uri_escapes(uri, decoded))
                     fail(GLTF_INVALID, at("buffers", b) + ".uri \"" + uri +
                                            "\" points outside the input's folder (use --allow-external-uris)");
-                struct stat st;
                 const std::string full = resolve_uri(dir, uri);
                 if (full.empty()) fail(GLTF_IO, at("buffers", b) + ": cannot read \"" + uri + "\" (not a local file)");
-                require_regular_file(full, at("buffers", b), uri);
-                if (stat(full.c_str(), &st) != 0) fail(GLTF_IO, at("buffers", b) + ": cannot read \"" + uri + "\"");
+                const uint64_t size = require_regular_file(full, at("buffers", b), uri);
                 uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
-                if (uint64_t(st.st_size) > cap) fail(GLTF_INVALID, at("buffers", b) + ": \"" + uri + "\" is too large");
+                if (size > cap) fail(GLTF_INVALID, at("buffers", b) + ": \"" + uri + "\" is too large");
             }
         }
     }
