@@ -444,13 +444,27 @@ static long long pointer_into(const char *pointer, const char *array, const char
     return n;
 }
 
+/* "weights", or "weights/K": one morph weight (the glTF object model's
+ * /nodes/{}/weights/{} and /meshes/{}/weights/{}). */
+static int is_weights_property(const char *property)
+{
+    if (strncmp(property, "weights", 7) != 0) return 0;
+    if (property[7] == 0) return 1;
+    const char *digits = property + 8, *p = digits;
+    if (property[7] != '/' || (*digits == '0' && digits[1])) return 0;
+    while (*p >= '0' && *p <= '9') ++p;
+    return p > digits && *p == 0;
+}
+
 /* Channel c of animation a: the node it animates (-1: none) and the
  * property, as the node's JSON pointer suffix: the target's path
  * ("translation", "weights", ...), or for a KHR_animation_pointer channel
  * (path "pointer") what follows "/nodes/N/" in its pointer (e.g.
- * "extensions/KHR_node_visibility/visible"); at most 63 characters, else "";
- * and *mesh_weights: the mesh whose default weights it drives by a pointer
- * "/meshes/M/weights", else -1. Returns 0, or -1 when there is no channel c. */
+ * "extensions/KHR_node_visibility/visible", "weights/2"); at most 63
+ * characters, else ""; and *mesh_weights: the mesh whose default weights it
+ * drives by a pointer "/meshes/M/weights" or "/meshes/M/weights/K" (property
+ * then what follows "/meshes/M/"), else -1. Returns 0, or -1 when there is
+ * no channel c. */
 static int channel_target(const scene *s, size_t a, size_t c, int64_t *node, char property[64], int64_t *mesh_weights)
 {
     gltf_channel ch;
@@ -466,7 +480,10 @@ static int channel_target(const scene *s, size_t a, size_t c, int64_t *node, cha
     if (*node >= 0 && strlen(rest) < 64) strcpy(property, rest);
     else *node = -1;
     const long long mesh = pointer_into(ch.pointer, "meshes", &rest);
-    if (mesh >= 0 && strcmp(rest, "weights") == 0) *mesh_weights = mesh;
+    if (mesh >= 0 && is_weights_property(rest) && strlen(rest) < 64) {
+        *mesh_weights = mesh;
+        strcpy(property, rest);
+    }
     return 0;
 }
 
@@ -502,11 +519,11 @@ static int retarget_channel(scene *s, size_t a, size_t c, const char *array, int
 /* The properties of a node that its LOD nodes copy and so must animate alike. */
 static int followed_property(const char *property)
 {
-    static const char *const kFollowed[] = {"translation", "rotation", "scale", "weights",
+    static const char *const kFollowed[] = {"translation", "rotation", "scale",
                                             "extensions/KHR_node_visibility/visible"};
     for (size_t k = 0; k < sizeof kFollowed / sizeof kFollowed[0]; ++k)
         if (strcmp(property, kFollowed[k]) == 0) return 1;
-    return 0;
+    return is_weights_property(property);
 }
 
 /* A node that has a mesh AND children cannot simply carry MSFT_lod: clients
@@ -555,7 +572,7 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
     /* morph weight animations follow the mesh */
     for (size_t i = 0; i < s->channel_count; ++i) {
         scene_channel *e = &s->channels[i];
-        if (e->node != (int64_t)n || strcmp(e->property, "weights") != 0) continue;
+        if (e->node != (int64_t)n || !is_weights_property(e->property)) continue;
         if (retarget_channel(s, e->animation, e->channel, "nodes", carrier, e->property) != 0)
             return lp_fail(err, LP_INVALID, "cannot retarget an animation channel to nodes[%lld]", (long long)carrier), -1;
         e->node = carrier;
@@ -630,8 +647,7 @@ static int append_channel_copy(scene *s, const scene_channel *e, int64_t target,
     int rc = gltf_set_json(s->doc, to, channel);
     free(channel);
     if (rc != 0) return -1;
-    return mesh ? retarget_channel(s, e->animation, at, "meshes", target, "weights")
-                : retarget_channel(s, e->animation, at, "nodes", target, e->property);
+    return retarget_channel(s, e->animation, at, mesh ? "meshes" : "nodes", target, e->property);
 }
 
 /* The channels that animate mesh m's default morph weights by pointer, copied

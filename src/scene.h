@@ -78,7 +78,8 @@ typedef struct scene_channel {
     uint32_t animation, channel;
     int64_t node;         /* the node it animates, -1: none */
     int64_t mesh_weights; /* the mesh whose default weights it drives by pointer, -1: none */
-    char property[64];    /* the node's property it drives ("translation", "weights", ...) */
+    char property[64];    /* the node's property it drives ("translation", "weights", "weights/2", ...),
+                             or the mesh's ("weights", "weights/2") */
 } scene_channel;
 
 typedef struct scene {

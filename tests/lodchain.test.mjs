@@ -562,6 +562,47 @@ test('mesh extras, extensions and "/meshes/M/weights" pointer channels follow to
   });
 });
 
+// One morph weight by pointer (QA): the glTF object model's "/nodes/N/weights/K" and "/meshes/M/weights/K"
+// animate a single weight (three.js plays them). Such a channel follows to every LOD node and LOD mesh like a
+// "weights" channel, and one on a node that hands its mesh to a "<node>_mesh" carrier (the node has a
+// child) is retargeted to the carrier: before, none was copied and the carrier's was left on the node.
+test('one morph weight by pointer ("weights/K") follows to LOD nodes, LOD meshes and a mesh carrier', { skip: skipRuns }, async (t) => {
+  let plain = -1;
+  const input = cowVariant(tempDir(t), 'cow_weight_pointer.gltf', (j, node, addAccessor) => {
+    const mesh = j.meshes[0];
+    const count = j.accessors[mesh.primitives[0].attributes.POSITION].count;
+    const lift = addAccessor([...Array(count)].flatMap(() => [0, 0.01, 0]), 'VEC3', count);
+    const push = addAccessor([...Array(count)].flatMap(() => [0.01, 0, 0]), 'VEC3', count);
+    for (const p of mesh.primitives) p.targets = [{ POSITION: lift }, { POSITION: push }];
+    mesh.weights = [0, 0];
+    j.nodes[node].weights = [0, 0];
+    j.nodes[node].children = [j.nodes.push({ name: 'rider', translation: [0, 1, 0] }) - 1];
+    plain = j.nodes.push({ name: 'plain cow', mesh: 0, translation: [5, 0, 0], weights: [0, 0] }) - 1;
+    j.scenes[j.scene ?? 0].nodes.push(plain);
+    const times = addAccessor([0, 1], 'SCALAR', 2);
+    const weight = addAccessor([0, 1], 'SCALAR', 2);
+    const pointer = (p) => ({ path: 'pointer', extensions: { KHR_animation_pointer: { pointer: p } } });
+    j.animations = [{ name: 'one weight', samplers: [{ input: times, output: weight }],
+      channels: [{ sampler: 0, target: pointer(`/nodes/${node}/weights/1`) }, { sampler: 0, target: pointer(`/nodes/${plain}/weights/0`) },
+        { sampler: 0, target: pointer('/meshes/0/weights/1') }] }];
+    j.extensionsUsed = [...(j.extensionsUsed || []), 'KHR_animation_pointer'];
+  });
+  const run = await checkedStructure(t, input, 'cow with single morph weights animated by pointer', 'the main job');
+  await t.test('the pointers: the carrier\'s and the plain node\'s LOD nodes, every LOD mesh, each for the same weight', () => {
+    const j = readRaw(run.out).json;
+    const root = j.scenes[j.scene ?? 0].nodes[0];
+    const carrier = j.nodes.findIndex((n) => n.name === `${j.nodes[root].name}_mesh`);
+    assert.ok(carrier > 0 && j.nodes[root].children.includes(carrier), 'the node hands its mesh to a carrier');
+    const ids = (n) => j.nodes[n].extensions?.MSFT_lod?.ids || [];
+    assert.ok(ids(carrier).length > 0 && ids(plain).length === ids(carrier).length, 'both carry the chain');
+    const pointers = j.animations[0].channels.map((c) => c.target.extensions.KHR_animation_pointer.pointer);
+    const lodMeshes = [...new Set(ids(plain).map((id) => j.nodes[id].mesh))];
+    assert.deepEqual(pointers.sort(), [`/nodes/${carrier}/weights/1`, `/nodes/${plain}/weights/0`, '/meshes/0/weights/1',
+      ...lodMeshes.map((m) => `/meshes/${m}/weights/1`), ...ids(carrier).map((id) => `/nodes/${id}/weights/1`),
+      ...ids(plain).map((id) => `/nodes/${id}/weights/0`)].sort());
+  });
+});
+
 // A mesh of the default scene that a node of another scene uses too (no corpus asset has one): the chain
 // goes on every node that uses the mesh (README "Output format"), so a client that switches scenes sees
 // it there as well, with switching distances for that node's own world scale.

@@ -1262,16 +1262,18 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
   const lodOwner = new Map();
   nodes.forEach((n, i) => (n.extensions?.MSFT_lod?.ids || []).forEach((id) => { if (id >= nInNodes) lodOwner.set(id, i); }));
   // (by target node and path, or by a KHR_animation_pointer "/nodes/N/..." pointer; KHR_node_visibility too)
-  const FOLLOWED = ['translation', 'rotation', 'scale', 'weights', 'extensions/KHR_node_visibility/visible'];
-  // a pointer "/meshes/M/weights" (a mesh's default morph weights) is copied once per LOD mesh of M
+  // ("weights", or one weight "weights/K" by pointer: the glTF object model's /nodes/{}/weights/{})
+  const isWeights = (prop) => /^weights(\/(0|[1-9]\d*))?$/.test(prop ?? '');
+  const followed = (prop) => ['translation', 'rotation', 'scale', 'extensions/KHR_node_visibility/visible'].includes(prop) || isWeights(prop);
+  // a pointer "/meshes/M/weights" or "/meshes/M/weights/K" (a mesh's default morph weights) is copied once
+  // per LOD mesh of M, for the same weights
   const lodMeshOwner = new Map();
   nodes.forEach((n) => (n.extensions?.MSFT_lod?.ids || []).forEach((id) => {
     if (n.mesh !== undefined && nodes[id]?.mesh >= nInMeshes) lodMeshOwner.set(nodes[id].mesh, n.mesh);
   }));
-  const meshWeights = (ch) => {
-    const m = ch?.target?.path === 'pointer' && /^\/meshes\/(\d+)\/weights$/.exec(ch.target.extensions?.KHR_animation_pointer?.pointer ?? '');
-    return m ? Number(m[1]) : undefined;
-  };
+  const meshPointer = (ch) => ch?.target?.path === 'pointer' && /^\/meshes\/(\d+)\/(weights(?:\/(?:0|[1-9]\d*))?)$/.exec(ch.target.extensions?.KHR_animation_pointer?.pointer ?? '');
+  const meshWeights = (ch) => (meshPointer(ch) ? Number(meshPointer(ch)[1]) : undefined);
+  const meshProp = (ch) => (meshPointer(ch) ? meshPointer(ch)[2] : undefined);
   (j.animations || []).forEach((an, ai) => {
     const channels = an.channels || [];
     const isCopy = (ch) => lodOwner.has(channelTarget(ch).node) || lodMeshOwner.has(meshWeights(ch));
@@ -1283,11 +1285,11 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
     const same = (x, y) => x.sampler === y.sampler && x.target?.path === y.target?.path && channelTarget(x).prop === channelTarget(y).prop;
     for (const ch of copies.filter((c) => meshWeights(c) !== undefined)) {
       const owner = lodMeshOwner.get(meshWeights(ch));
-      if (!own.some((o) => meshWeights(o) === owner && o.sampler === ch.sampler)) P('unchanged', `/animations/${ai}: a channel for LOD mesh ${meshWeights(ch)} (sampler ${ch.sampler}) copies no channel of its mesh ${owner}`);
+      if (!own.some((o) => meshWeights(o) === owner && o.sampler === ch.sampler && meshProp(o) === meshProp(ch))) P('unchanged', `/animations/${ai}: a channel for LOD mesh ${meshWeights(ch)} (sampler ${ch.sampler}) copies no channel of its mesh ${owner}`);
     }
     for (const o of own.filter((c) => meshWeights(c) !== undefined)) {
       for (const [M, owner] of lodMeshOwner) {
-        if (owner === meshWeights(o) && !copies.some((ch) => meshWeights(ch) === M && ch.sampler === o.sampler)) P('chain', `/animations/${ai}: LOD mesh ${M} does not follow mesh ${owner}'s weights channel (sampler ${o.sampler})`);
+        if (owner === meshWeights(o) && !copies.some((ch) => meshWeights(ch) === M && ch.sampler === o.sampler && meshProp(ch) === meshProp(o))) P('chain', `/animations/${ai}: LOD mesh ${M} does not follow mesh ${owner}'s ${meshProp(o)} channel (sampler ${o.sampler})`);
       }
     }
     for (const ch of copies.filter((c) => meshWeights(c) === undefined)) {
@@ -1298,9 +1300,9 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
     const carried = new Set(carriers.values());
     for (const o of own) {
       const { node, prop } = channelTarget(o);
-      if (!FOLLOWED.includes(prop)) continue;
+      if (!followed(prop)) continue;
       // a carrier's LOD nodes take the carrier's place under the node: the node's own TRS moves them already
-      if (carried.has(node) && prop !== 'weights') continue;
+      if (carried.has(node) && !isWeights(prop)) continue;
       for (const id of nodes[node]?.extensions?.MSFT_lod?.ids || []) {
         if (id >= nInNodes && !copies.some((ch) => channelTarget(ch).node === id && same(o, ch))) P('chain', `/animations/${ai}: LOD node ${id} does not follow node ${node}'s ${prop} channel (sampler ${o.sampler})`);
       }
