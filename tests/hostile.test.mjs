@@ -622,3 +622,29 @@ test('a mesh without primitives is kept as it is; a world transform beyond float
     }
   });
 });
+
+// extensionsRequired (README "What the loader accepts"): an extension that only concerns materials, or one the
+// chain carries to its levels (KHR_animation_pointer, KHR_node_visibility), does not stop the run; one lodpipe
+// cannot honour does (exit 2, naming it).
+test('extensionsRequired: material-only and chain-carried extensions accepted, an unknown one refused', { skip }, async (t) => {
+  const { json, bin } = parseGlb(fs.readFileSync(DUCK));
+  for (const [ext, code] of [['KHR_materials_diffuse_transmission', 0], ['KHR_animation_pointer', 0],
+    ['KHR_node_visibility', 0], ['KHR_materials_clearcoat', 0], ['EXT_lodpipe_unknown', 2]]) {
+    await t.test(`${ext} -> exit ${code}`, (st) => {
+      const dir = tempDir(st);
+      const j = structuredClone(json);
+      j.extensionsUsed = [...(j.extensionsUsed || []), ext];
+      j.extensionsRequired = [...(j.extensionsRequired || []), ext];
+      const input = path.join(dir, 'in.glb');
+      writeGlb(input, j, bin);
+      const out = path.join(dir, 'out.glb');
+      const r = runLodpipe([input, '-o', out, '-q']);
+      if (code === 0) {
+        assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
+        assert.deepEqual(parseGlb(fs.readFileSync(out)).json.extensionsRequired, j.extensionsRequired, 'kept as required');
+      } else {
+        assert.deepEqual(refusalProblems(r, code, ext, dir, ['in.glb']), [], describeRun(r));
+      }
+    });
+  }
+});

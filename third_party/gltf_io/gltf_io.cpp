@@ -54,8 +54,9 @@ const char *kDraco = "KHR_draco_mesh_compression";
 const char *kMeshopt = "EXT_meshopt_compression";
 
 // Extensions lodpipe can honour when a file lists them as required: the ones it
-// decodes, the quantization it reads, and those that only concern data it passes
-// through untouched (materials, textures, lights, instancing).
+// decodes, the quantization it reads, those that only concern data it passes
+// through untouched (materials, textures, lights, instancing), and those the LOD
+// chain carries over to its levels (animation pointers, node visibility).
 const char *const kSupportedRequired[] = {
     "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_mesh_quantization",
     "KHR_texture_transform", "KHR_texture_basisu", "EXT_texture_webp", "EXT_texture_avif",
@@ -63,7 +64,7 @@ const char *const kSupportedRequired[] = {
     "KHR_materials_clearcoat", "KHR_materials_transmission", "KHR_materials_volume",
     "KHR_materials_ior", "KHR_materials_specular", "KHR_materials_sheen",
     "KHR_materials_iridescence", "KHR_materials_anisotropy", "KHR_materials_dispersion",
-    "KHR_materials_variants", "KHR_lights_punctual", "EXT_mesh_gpu_instancing",
+    "KHR_materials_diffuse_transmission", "KHR_materials_variants", "KHR_animation_pointer", "KHR_node_visibility", "KHR_lights_punctual", "EXT_mesh_gpu_instancing",
     "KHR_xmp_json_ld", "KHR_texture_procedurals"};
 
 struct Failure {
