@@ -411,7 +411,7 @@ static int write_manifest(batch *b, lp_error *err)
     }
     char *path = join_path(b->output_dir, MANIFEST_NAME);
     gltf_out_file f = {(char *)MANIFEST_NAME, (uint8_t *)w.text, w.length};
-    int rc = path ? output_write_all(path, &f, 1, NULL, 0, err) : lp_fail(err, LP_IO, "out of memory");
+    int rc = path ? output_write_all(path, &f, 1, NULL, 0, NULL, 0, err) : lp_fail(err, LP_IO, "out of memory");
     free(path);
     jsonw_free(&w);
     return rc;
@@ -672,9 +672,20 @@ static int read_job_summary(const batch *b, job *j)
     return rc ? -1 : 0;
 }
 
+/* The job's failure line for the summary: its last stderr line that is not
+ * a warning (a job reports its error last, after the warnings of loading),
+ * else its last line; `fallback` when it printed nothing. */
 static void note_error(job *j, const char *fallback)
 {
-    const char *text = j->err.size ? j->err.bytes : fallback;
+    const char *text = j->err.size ? j->err.bytes : fallback, *pick = NULL, *last = NULL;
+    for (const char *line = text; *line; line += strcspn(line, "\n"), line += *line == '\n') {
+        const size_t len = strcspn(line, "\n");
+        if (!len) continue;
+        last = line;
+        const char *warning = strstr(line, ": warning: ");
+        if (!warning || warning >= line + len) pick = line;
+    }
+    text = pick ? pick : last ? last : text;
     size_t n = strcspn(text, "\n");
     j->error = malloc(n + 1);
     if (j->error) {
@@ -948,7 +959,10 @@ static void print_table(const batch *b, const totals *t, double wall)
     printf("wall %.2f s: %.2f files/s, %.0f triangles/s\n", wall, wall > 0 ? (double)t->files / wall : 0.0,
            wall > 0 ? (double)t->triangles_in / wall : 0.0);
     for (size_t i = 0; i < b->job_count; ++i)
-        if (b->jobs[i].state == JOB_FAILED) printf("failed: %s (exit %d)\n", b->jobs[i].rel, b->jobs[i].exit_code);
+        if (b->jobs[i].state == JOB_FAILED) { /* a name's control characters escaped, as on stderr */
+            char line[4200];
+            printf("%s\n", lp_line(line, sizeof line, "failed: %s (exit %d)", b->jobs[i].rel, b->jobs[i].exit_code));
+        }
 }
 
 /* ---- setup ----------------------------------------------------------------------- */

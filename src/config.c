@@ -606,6 +606,18 @@ int config_check(const lp_config *config, lp_error *err)
         if (set >> k & 1u)
             return lp_fail(err, LP_USAGE, "lod.optimal_levels (--optimal-levels) names level %u, but lod.levels has %zu",
                            k + 1, config->lod.level_count);
+    /* the camera must give every level a finite switching distance and a
+     * cull coverage below 1 (switching.h), or the written thresholds would
+     * not run from the finest level to the coarsest */
+    const double p = config->switching.pixel_error, h = config->switching.viewport_height;
+    if (!(p < h))
+        return lp_fail(err, LP_USAGE, "switching.pixel_error (--pixel-error) %g must be below switching.viewport_height "
+                                      "(--viewport-height) %g: every node would be culled", p, h);
+    const double per_error = h / (2.0 * tan(config->switching.fov_y / 2.0) * p);
+    if (!(per_error <= SWITCHING_MAX_DISTANCE_PER_ERROR))
+        return lp_fail(err, LP_USAGE, "switching.fov_y (--fov-y) %g with switching.pixel_error (--pixel-error) %g puts "
+                                      "the switching distance beyond %g times a level's error",
+                       config->switching.fov_y, p, SWITCHING_MAX_DISTANCE_PER_ERROR);
     return LP_OK;
 }
 

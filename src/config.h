@@ -28,7 +28,7 @@
  *                optimal_levels with "optimal": the level numbers (1-based)
  *                               that may place vertices; [] = every level []
  *   [switching]  pixel_error    p, pixels of screen error at the switching
- *                               distance; > 0                             1.0
+ *                               distance; > 0, below viewport_height      1.0
  *                viewport_height  H, pixels; > 0                         1080
  *                fov_y          vertical field of view, radians; (0, pi)  pi/4
  *   [run]        threads        worker threads, 0 = one per core; 0..64     0
@@ -127,10 +127,20 @@ int config_load(lp_config *config, const char *path, lp_error *err);
  *   --draco           draco.enabled   (a switch: the CLI passes "true")    */
 int config_set(lp_config *config, const char *name, const char *value_text, lp_error *err);
 
+/* The camera's switching distance per unit of a level's error (switching.h:
+ * H / (2 tan(fov_y / 2) p)) may be at most this. A real camera gives about
+ * 10^3 (1080 pixels, pi/4, 1 pixel); the bound keeps every written distance
+ * finite, as a world transform is within float range (an error times a
+ * scale below 10^77). */
+#define SWITCHING_MAX_DISTANCE_PER_ERROR 1e100
+
 /* The rules between keys, for the configuration in effect once the file and
  * every flag are applied: lod.optimal_levels only with lod.placement =
- * "optimal", and naming only levels lod.levels has. Returns LP_OK, or
- * LP_USAGE with err filled. */
+ * "optimal", and naming only levels lod.levels has; switching.pixel_error
+ * below switching.viewport_height (else every node is culled), and the
+ * camera's distance per unit of error at most
+ * SWITCHING_MAX_DISTANCE_PER_ERROR (a field of view or pixel error near 0).
+ * Returns LP_OK, or LP_USAGE with err filled. */
 int config_check(const lp_config *config, lp_error *err);
 
 /* Is `flag` one of the flags above? Returns 0 if not; 1 for a flag that takes

@@ -259,12 +259,14 @@ static void json_written_files(jsonw *j, const char *out, const gltf_out_file *f
     jsonw_raw(j, "]");
 }
 
-/* Serializes the document and writes every file all-or-nothing; on success
- * the paths written are appended to `written` (when not NULL). No file the
- * input `in` reads is replaced (its .bin by a .gltf output's, say), unless
- * --force names the input itself as OUT (the whole input is replaced then),
- * nor the --depfile, written afterwards (in = NULL: no such guards). */
-static int write_document(const cli *c, const char *in, const gltf_doc *doc, const char *out, jsonw *written)
+/* Serializes the document and writes every file all-or-nothing, with the
+ * --depfile's text when `depfile` is not NULL; on success the paths written
+ * are appended to `written` (when not NULL). No file the input `in` reads is
+ * replaced (its .bin by a .gltf output's, say), unless --force names the
+ * input itself as OUT (the whole input is replaced then), nor the --depfile
+ * (in = NULL: no such guards). */
+static int write_document(const cli *c, const char *in, const gltf_doc *doc, const char *out, const char *depfile,
+                          jsonw *written)
 {
     gltf_out_file *files = NULL;
     size_t count = 0;
@@ -280,11 +282,12 @@ static int write_document(const cli *c, const char *in, const gltf_doc *doc, con
             guards[guard_count++] = (output_guard){gltf_external_file(doc, i), "a file the input reads"};
     }
     if (in && c->depfile) guards[guard_count++] = (output_guard){c->depfile, "the --depfile"};
+    const output_file also = {c ? c->depfile : NULL, (const uint8_t *)depfile, depfile ? strlen(depfile) : 0};
     int rc = gltf_serialize(doc, out, &files, &count, msg, sizeof msg);
     if (rc) {
         lp_fail(&err, rc, "%s", msg);
         rc = report(out, &err);
-    } else if ((rc = output_write_all(out, files, count, guards, guard_count, &err)) != 0) {
+    } else if ((rc = output_write_all(out, files, count, &also, depfile ? 1 : 0, guards, guard_count, &err)) != 0) {
         rc = report(out, &err);
     } else if (written) {
         json_written_files(written, out, files, count);
@@ -350,7 +353,7 @@ static int cmd_convert(const cli *c)
     int rc = load(c, in, &s);
     if (rc) return rc;
     if (c->config.draco.enabled) rc = draco_lod0_only(c, in, &s);
-    if (!rc) rc = write_document(c, in, s.doc, out, NULL);
+    if (!rc) rc = write_document(c, in, s.doc, out, NULL, NULL);
     scene_free(&s);
     return rc;
 }
@@ -393,14 +396,11 @@ static int weld_and_simplify(scene *s, uint32_t m, const simplify_options *opt, 
     return rc;
 }
 
-/* Writes `size` bytes to path through the all-or-nothing writer. */
-static int write_bytes(const char *path, char *bytes, size_t size)
+/* Stages `size` bytes for path in the command's output set (output.h). */
+static int stage_bytes(output_set *set, const char *path, const char *bytes, size_t size)
 {
-    gltf_out_file f = {(char *)path, (uint8_t *)bytes, size};
-    const char *slash = strrchr(path, '/');
-    f.name = (char *)(slash ? slash + 1 : path);
     lp_error err = {0, ""};
-    int rc = output_write_all(path, &f, 1, NULL, 0, &err);
+    int rc = output_stage(set, path, (const uint8_t *)bytes, size, &err);
     if (rc) report(path, &err);
     return rc;
 }
@@ -452,10 +452,10 @@ static void obj_vertex_lines_free(obj_vertex_lines *l)
     free(l->line);
 }
 
-/* One level as OBJ: the mesh's welded vertices (shared by all levels; at
+/* One level as OBJ, staged in set: the mesh's welded vertices (shared by all levels; at
  * `positions` when a level placed vertices, else the weld's) and the level's
  * faces. A vertex at the weld's position reuses its formatted line. */
-static int write_obj(const char *path, const weld_result *w, const obj_vertex_lines *lines, const float *positions,
+static int write_obj(output_set *set, const char *path, const weld_result *w, const obj_vertex_lines *lines, const float *positions,
                      const uint32_t *face_vertices, uint32_t face_count, const uint32_t *face_wedges)
 {
     char *buf = NULL;
@@ -499,7 +499,7 @@ static int write_obj(const char *path, const weld_result *w, const obj_vertex_li
         lp_fail(&e, LP_IO, "out of memory formatting the OBJ");
         return report(path, &e);
     }
-    int rc = write_bytes(path, buf, size);
+    int rc = stage_bytes(set, path, buf, size);
     free(buf);
     return rc;
 }
@@ -558,9 +558,13 @@ static int cmd_simplify(const cli *c)
     char *json = NULL;
     size_t json_size = 0;
     FILE *j = open_memstream(&json, &json_size);
-    if (!j) {
+    /* every OBJ and the JSON appear together at the end, or none does */
+    output_set *set = NULL;
+    if (!j || output_set_begin(&set, &err)) {
+        if (j) fclose(j);
+        free(json);
         scene_free(&s);
-        return LP_IO;
+        return report(dir, &err);
     }
     fprintf(j, "{\"file\":");
     json_string(j, in);
@@ -582,10 +586,10 @@ static int cmd_simplify(const cli *c)
             rc = obj_vertex_lines_init(&lines, &w);
             if (!rc) {
                 level_obj_path(path, sizeof path, dir, m, 0);
-                rc = write_obj(path, &w, &lines, NULL, w.triangle_vertices, w.triangle_count, NULL);
+                rc = write_obj(set, path, &w, &lines, NULL, w.triangle_vertices, w.triangle_count, NULL);
                 for (uint32_t k = 0; k < r.level_count && !rc; ++k) {
                     level_obj_path(path, sizeof path, dir, m, k + 1);
-                    rc = write_obj(path, &w, &lines, r.levels[k].positions, NULL, r.levels[k].triangle_count,
+                    rc = write_obj(set, path, &w, &lines, r.levels[k].positions, NULL, r.levels[k].triangle_count,
                                    r.levels[k].wedges);
                 }
                 obj_vertex_lines_free(&lines);
@@ -622,8 +626,10 @@ static int cmd_simplify(const cli *c)
     fclose(j);
     if (!rc) {
         snprintf(path, sizeof path, "%s/simplify.json", dir);
-        rc = write_bytes(path, json, json_size);
+        rc = stage_bytes(set, path, json, json_size);
     }
+    if (!rc && (rc = output_commit(set, &err)) != 0) report(dir, &err);
+    output_set_end(set);
     free(json);
     scene_free(&s);
     return rc;
@@ -641,23 +647,23 @@ static void json_inputs(jsonw *j, const char *in, const gltf_doc *doc)
     jsonw_raw(j, "]");
 }
 
-/* --depfile: "OUT: IN referenced-files... [config]", written all-or-nothing
- * after the output itself. */
-static int write_depfile(const cli *c, const char *in, const char *out, const gltf_doc *doc)
+/* --depfile's text, "OUT: IN referenced-files... [config]" (written with
+ * the output, all or nothing), in *text; LP_OK, or the error reported. */
+static int depfile_of(const cli *c, const char *in, const char *out, const gltf_doc *doc, char **text)
 {
     size_t count = 0, external = gltf_external_file_count(doc);
     const char **deps = malloc((external + 2) * sizeof *deps);
-    if (!deps) return LP_IO;
+    lp_error err = {0, ""};
+    if (!deps) {
+        lp_fail(&err, LP_IO, "out of memory");
+        return report(c->depfile, &err);
+    }
     deps[count++] = in;
     for (size_t i = 0; i < external; ++i) deps[count++] = gltf_external_file(doc, i);
     if (c->config_path) deps[count++] = c->config_path;
-    lp_error err = {0, ""};
-    char *text = depfile_text(out, deps, count, &err);
+    *text = depfile_text(out, deps, count, &err);
     free(deps);
-    if (!text) return report(c->depfile, &err);
-    int rc = write_bytes(c->depfile, text, strlen(text));
-    free(text);
-    return rc;
+    return *text ? LP_OK : report(c->depfile, &err);
 }
 
 /* A mesh of the main job waiting for its Draco encoding. */
@@ -674,7 +680,7 @@ typedef struct draco_job {
 static int draco_encode_all(scene *s, const draco_job *jobs, uint32_t count, const dracoout_options *o, lp_error *err)
 {
     const char *reference = getenv("LODPIPE_DRACO_REFERENCE");
-    if (reference && *reference && write_document(NULL, NULL, s->doc, reference, NULL) != 0)
+    if (reference && *reference && write_document(NULL, NULL, s->doc, reference, NULL, NULL) != 0)
         return lp_fail(err, LP_IO, "cannot write the Draco reference %s", reference);
     dracoout_stats stats = {0};
     int rc = LP_OK;
@@ -827,9 +833,11 @@ static int cmd_lod(const cli *c)
         return rc;
     }
     json_inputs(&j, in, s.doc);
-    rc = write_document(c, in, s.doc, out, &j);
+    char *depfile = NULL;
+    if (c->depfile) rc = depfile_of(c, in, out, s.doc, &depfile);
+    if (!rc) rc = write_document(c, in, s.doc, out, depfile, &j);
+    free(depfile);
     jsonw_raw(&j, "}\n");
-    if (!rc && c->depfile) rc = write_depfile(c, in, out, s.doc);
     if (!rc && c->json) fputs(j.failed ? "{}\n" : j.text, stdout);
     jsonw_free(&j);
     scene_free(&s);
@@ -1075,7 +1083,10 @@ static int parse(int argc, char **argv, cli *c)
     for (size_t k = 0; !rc && k < config_argc; k += 2)
         if ((rc = config_set(&c->config, config_args[k], config_args[k + 1], &err)) != 0)
             lp_say("%s", err.msg);
-    if (!rc && (rc = config_check(&c->config, &err)) != 0) lp_say("%s", err.msg);
+    /* a rule between keys: the file and the flags together broke it */
+    if (!rc && (rc = config_check(&c->config, &err)) != 0)
+        lp_say("%s%s: %s", c->config_path ? c->config_path : "the command line",
+               c->config_path ? " with the command line" : "", err.msg);
     free(config_args);
     if (rc) return rc;
     for (size_t k = 0; k < c->config.lod.level_count && k < SIMPLIFY_MAX_LEVELS; ++k)

@@ -4,6 +4,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -94,36 +95,111 @@ int output_check_folder(const char *main_path, lp_error *err)
     return LP_OK;
 }
 
-/* The temp files being written, for a signal that ends the process midway
- * (Ctrl-C, a batch stopping its jobs): its handler removes them, so that no
+/* The set being written, for a signal that ends the process midway (Ctrl-C,
+ * a batch stopping its jobs): its handler removes the temp files, so that no
  * "OUT.lodpipe-XXXXXX" is left behind, then ends the process by the same
- * signal. */
-static char (*volatile g_temps)[4200];
-static volatile size_t g_temp_count;
+ * signal. The lists change only with the stop signals blocked, so the
+ * handler never sees them half-grown. One set at a time per process. */
+struct output_set {
+    char (*temps)[4200];   /* "" once renamed, or not written (identical target) */
+    char (*targets)[4200];
+    size_t count, capacity;
+    stopsig_saved before;
+    sigset_t held_before;  /* the mask before output_commit held the signals */
+    int held;
+};
+
+static output_set *volatile g_set;
 
 static void remove_temps_and_die(int sig)
 {
-    for (size_t i = 0; g_temps && i < g_temp_count; ++i)
-        if (g_temps[i][0]) unlink(g_temps[i]);
+    const output_set *set = g_set;
+    for (size_t i = 0; set && i < set->count; ++i)
+        if (set->temps[i][0]) unlink(set->temps[i]);
     signal(sig, SIG_DFL);
     raise(sig);
 }
 
-int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, const output_guard *guards,
-                     size_t guard_count, lp_error *err)
+static void stop_signals(sigset_t *set)
+{
+    sigemptyset(set);
+    sigaddset(set, SIGINT);
+    sigaddset(set, SIGTERM);
+    sigaddset(set, SIGHUP);
+}
+
+int output_set_begin(output_set **out, lp_error *err)
+{
+    output_set *set = calloc(1, sizeof *set);
+    if (!set) return lp_fail(err, LP_IO, "out of memory");
+    g_set = set;
+    stopsig_catch(remove_temps_and_die, &set->before);
+    *out = set;
+    return LP_OK;
+}
+
+int output_stage(output_set *set, const char *target, const uint8_t *bytes, size_t size, lp_error *err)
+{
+    if (set->count == set->capacity) {
+        const size_t capacity = set->capacity ? 2 * set->capacity : 8;
+        sigset_t stops, old;
+        stop_signals(&stops);
+        pthread_sigmask(SIG_BLOCK, &stops, &old);
+        char(*temps)[4200] = realloc(set->temps, capacity * sizeof *temps);
+        if (temps) set->temps = temps;
+        char(*targets)[4200] = temps ? realloc(set->targets, capacity * sizeof *targets) : NULL;
+        if (targets) set->targets = targets, set->capacity = capacity;
+        pthread_sigmask(SIG_SETMASK, &old, NULL);
+        if (!targets) return lp_fail(err, LP_IO, "out of memory");
+    }
+    const size_t i = set->count;
+    snprintf(set->targets[i], sizeof set->targets[i], "%s", target);
+    set->temps[i][0] = 0;
+    set->count++;
+    return write_temp(target, bytes, size, set->temps[i], sizeof set->temps[i], err);
+}
+
+int output_commit(output_set *set, lp_error *err)
+{
+    /* held from the first rename on: a stop then takes effect after the
+     * last one (output_set_end), never between two */
+    if (!set->held) {
+        sigset_t stops;
+        stop_signals(&stops);
+        pthread_sigmask(SIG_BLOCK, &stops, &set->held_before);
+        set->held = 1;
+    }
+    for (size_t i = 0; i < set->count; ++i) {
+        if (!set->temps[i][0]) continue;
+        if (rename(set->temps[i], set->targets[i]) != 0)
+            return lp_fail(err, LP_IO, "cannot write %s (%s)", set->targets[i], strerror(errno));
+        set->temps[i][0] = 0;
+    }
+    return LP_OK;
+}
+
+void output_set_end(output_set *set)
+{
+    if (!set) return;
+    for (size_t i = 0; i < set->count; ++i)
+        if (set->temps[i][0]) unlink(set->temps[i]);
+    stopsig_restore(&set->before);
+    g_set = NULL;
+    if (set->held) pthread_sigmask(SIG_SETMASK, &set->held_before, NULL);
+    free(set->temps);
+    free(set->targets);
+    free(set);
+}
+
+int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, const output_file *also,
+                     size_t also_count, const output_guard *guards, size_t guard_count, lp_error *err)
 {
     char base[4096];
     folder_of(main_path, base, sizeof base);
     int rc = output_check_folder(main_path, err);
     if (rc) return rc;
-
-    char (*temps)[4200] = calloc(count ? count : 1, sizeof *temps);
     char (*targets)[4200] = calloc(count ? count : 1, sizeof *targets);
-    stopsig_saved before;
-    if (!temps || !targets) {
-        rc = lp_fail(err, LP_IO, "out of memory");
-        goto cleanup;
-    }
+    if (!targets) return lp_fail(err, LP_IO, "out of memory");
     for (size_t i = 0; i < count && !rc; ++i) {
         if (i == 0) snprintf(targets[i], sizeof targets[i], "%s", main_path);
         else snprintf(targets[i], sizeof targets[i], "%s/%s", base, files[i].name);
@@ -132,32 +208,20 @@ int output_write_all(const char *main_path, const gltf_out_file *files, size_t c
                 rc = lp_fail(err, LP_USAGE, "%s (written with the output) is %s; choose another output name", targets[i],
                              guards[g].why);
     }
-    if (rc) goto cleanup; /* before anything is written */
-    g_temps = temps;
-    g_temp_count = count;
-    stopsig_catch(remove_temps_and_die, &before);
-    for (size_t i = 0; i < count && !rc; ++i) {
+    for (size_t i = 0; i < also_count && !rc; ++i) rc = output_check_folder(also[i].path, err);
+    output_set *set = NULL;
+    if (!rc) rc = output_set_begin(&set, err); /* before anything is written */
+    /* the files beside the main one first, the main file last: a reader
+     * never sees a main file whose buffers are missing */
+    for (size_t i = 0; i < also_count && !rc; ++i) rc = output_stage(set, also[i].path, also[i].bytes, also[i].size, err);
+    for (size_t k = 1; k <= count && !rc; ++k) {
+        const size_t i = k % count;
         if (i > 0 && same_bytes(targets[i], files[i].bytes, files[i].size)) continue;
         if (i > 0) rc = make_parents(base, files[i].name, err);
-        if (!rc) rc = write_temp(targets[i], files[i].bytes, files[i].size, temps[i], sizeof temps[i], err);
+        if (!rc) rc = output_stage(set, targets[i], files[i].bytes, files[i].size, err);
     }
-    /* Auxiliary files first, the main file last: a reader never sees a main file
-     * whose buffers are missing. */
-    for (size_t k = 0; k < count && !rc; ++k) {
-        size_t i = (k + 1) % count;
-        if (!temps[i][0]) continue;
-        if (rename(temps[i], targets[i]) != 0) rc = lp_fail(err, LP_IO, "cannot write %s (%s)", targets[i], strerror(errno));
-        else temps[i][0] = 0;
-    }
-cleanup:
-    for (size_t i = 0; temps && i < count; ++i)
-        if (temps[i][0]) unlink(temps[i]);
-    if (g_temps) {
-        stopsig_restore(&before);
-        g_temps = NULL;
-        g_temp_count = 0;
-    }
-    free(temps);
+    if (!rc) rc = output_commit(set, err);
+    output_set_end(set);
     free(targets);
     return rc;
 }

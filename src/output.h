@@ -1,11 +1,14 @@
 /* output.h - writing a set of files so that either all of them appear or none.
  *
- * Each file is written to a temp file in its final folder, then all are renamed
- * into place (the main file, files[0], last). On any failure every temp file is
- * removed, no existing file is touched, and the error (LP_IO) names the path and
- * the reason (missing folder, read-only folder, disk full, ...). An auxiliary
- * file (files[1..]) whose target already holds identical bytes is left alone, so
- * writing beside the input does not rewrite its textures. */
+ * Each file is written to a temp file beside its target, then all are renamed
+ * into place (the main file last). On any failure every temp file is removed,
+ * no existing file is touched, and the error (LP_IO) names the path and the
+ * reason (missing folder, read-only folder, disk full, ...). A stop signal
+ * (stopsig.h) while the temp files are written removes them and ends the
+ * process by that signal; one that comes while they are renamed takes effect
+ * after the last rename, so the set is never left half renamed. An auxiliary
+ * file whose target already holds identical bytes is left alone, so writing
+ * beside the input does not rewrite its textures. */
 #ifndef LODPIPE_OUTPUT_H
 #define LODPIPE_OUTPUT_H
 
@@ -21,14 +24,34 @@ typedef struct output_guard {
     const char *why;
 } output_guard;
 
+/* A file to write at a path of its own (another folder than the output's). */
+typedef struct output_file {
+    const char *path;
+    const uint8_t *bytes;
+    size_t size;
+} output_file;
+
 /* `main_path` is the output path the user named; files[i].name are relative to
- * its folder, files[0] being the main file. Before anything is written, a
+ * its folder, files[0] being the main file; also[0 .. also_count) are written
+ * with them, all or none (the --depfile). Before anything is written, a
  * target that is one of the guarded files (output_same_path) and would
  * change is refused with LP_USAGE ("T (written with the output) is a file the
  * input reads; choose another output name"): a .gltf output's .bin must not
  * overwrite the buffer its input reads. */
-int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, const output_guard *guards,
-                     size_t guard_count, lp_error *err);
+int output_write_all(const char *main_path, const gltf_out_file *files, size_t count, const output_file *also,
+                     size_t also_count, const output_guard *guards, size_t guard_count, lp_error *err);
+
+/* The same all-or-nothing write for files produced one at a time (the
+ * simplify command's OBJs): output_set_begin, then output_stage for each
+ * file as it is ready (its temp file is written at once, so the bytes need
+ * not be kept), then output_commit, which renames them in the order staged;
+ * output_set_end always, which removes what was not renamed and restores the
+ * signals. The target's folder must exist (output_check_folder). */
+typedef struct output_set output_set;
+int output_set_begin(output_set **set, lp_error *err);
+int output_stage(output_set *set, const char *target, const uint8_t *bytes, size_t size, lp_error *err);
+int output_commit(output_set *set, lp_error *err);
+void output_set_end(output_set *set);
 
 /* LP_OK when the folder of main_path exists and may be written to, else the
  * error output_write_all would give (LP_IO). Callers check it before a long

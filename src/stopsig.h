@@ -1,9 +1,9 @@
 /* stopsig.h - the signals that ask lodpipe to stop (SIGINT, SIGTERM, SIGHUP:
  * Ctrl-C, kill, a CI job's timeout, a closed terminal), caught for a while by
  * code that must clean up first: the writer removes its temp files, the
- * batch stops its jobs. stopsig_catch installs `handler` for all of them
- * (no SA_RESTART: a blocking call returns EINTR) and saves what was there;
- * stopsig_restore puts that back. */
+ * batch stops its jobs. stopsig_catch installs `handler` for each of them
+ * that is not ignored (no SA_RESTART: a blocking call returns EINTR) and
+ * saves what was there; stopsig_restore puts that back. */
 #ifndef LODPIPE_STOPSIG_H
 #define LODPIPE_STOPSIG_H
 

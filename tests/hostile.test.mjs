@@ -623,6 +623,121 @@ test('a mesh without primitives is kept as it is; a world transform beyond float
   });
 });
 
+// The end of a run (QA, README "Exit codes"): a stop signal between two renames must not leave an output half
+// replaced (a new .bin beside the old .gltf); a signal the parent made lodpipe ignore stays ignored; the
+// --depfile and the simplify command's files are written all or nothing with the rest; one failure class, one
+// exit code, whatever else exists; a batch summary names the failure, not a warning printed before it; a camera
+// that would give infinite switching distances is refused. strace injects the signal at the first rename(2).
+const TRUCK_FILES = ['CesiumMilkTruck.gltf', 'CesiumMilkTruck0.bin', 'CesiumMilkTruck.png'];
+const haveStrace = spawnSync('strace', ['-V']).status === 0;
+
+function truckCopy(dir) {
+  for (const f of TRUCK_FILES) fs.copyFileSync(corpusPath(`scenes/CesiumMilkTruck/${f}`), path.join(dir, f));
+  return path.join(dir, 'CesiumMilkTruck.gltf');
+}
+
+/** runLodpipe with `signal` delivered at the process's first rename(2); LeakSanitizer cannot run under ptrace. */
+function runSignalledAtRename(args, signal, shellPrefix = []) {
+  return runLodpipe(args, {
+    prefix: [...shellPrefix, 'strace', '-f', '-o', '/dev/null', '-e', 'trace=rename',
+      '-e', `inject=rename:signal=${signal}:when=1`],
+    env: { ASAN_OPTIONS: `${process.env.ASAN_OPTIONS ? process.env.ASAN_OPTIONS + ':' : ''}detect_leaks=0` },
+  });
+}
+
+test('the end of a run: stops between renames, the depfile, exit codes, batch errors, the camera', { skip }, async (t) => {
+  await t.test('SIGTERM at the first rename: the output is whole (new .gltf with its new .bin), then the signal', { skip: !haveStrace && 'strace not installed' }, async (st) => {
+    const dir = tempDir(st);
+    const input = truckCopy(dir);
+    const out = path.join(dir, 'out');
+    fs.mkdirSync(out);
+    const target = path.join(out, 'b.gltf');
+    const first = runLodpipe([input, '-o', target, '--levels', '1,3', '-q']);
+    assert.equal(first.status, 0, describeRun(first));
+    const before = fs.readFileSync(target);
+    const r = runSignalledAtRename([input, '-o', target, '--levels', '5,20', '-q'], 'SIGTERM');
+    assert.equal(r.signal, 'SIGTERM', `ends by the signal\n${describeRun(r)}`);
+    assert.deepEqual(listFilesRecursive(out), ['CesiumMilkTruck.png', 'b.bin', 'b.gltf'], 'no temp file left');
+    assert.ok(!fs.readFileSync(target).equals(before), 'the renames went on to the main file');
+    assert.deepEqual(newValidatorErrors(await validateFileCached(input), await validateFileCached(target)), [],
+      'the new .gltf and the new .bin belong together');
+  });
+  await t.test('SIGINT ignored by the parent (a background job of a script) stays ignored while writing', { skip: !haveStrace && 'strace not installed' }, (st) => {
+    const dir = tempDir(st);
+    const out = path.join(dir, 'out.glb');
+    const r = runSignalledAtRename([DUCK, '-o', out, '-q'], 'SIGINT', ['sh', '-c', 'trap "" INT; exec "$@"', 'sh']);
+    assert.equal(r.status, 0, describeRun(r));
+    assert.deepEqual(listFilesRecursive(dir), ['out.glb']);
+  });
+  await t.test('a --depfile that cannot be written: exit 4 and no OUT either; an earlier OUT left as it was', (st) => {
+    const dir = tempDir(st);
+    const out = path.join(dir, 'out.glb');
+    fs.mkdirSync(path.join(dir, 'dep.d')); // a folder: its parent exists, the write fails at the end
+    const fresh = runLodpipe([DUCK, '-o', out, '--depfile', path.join(dir, 'dep.d')]);
+    assert.deepEqual(refusalProblems(fresh, 4, 'dep.d', dir, ['dep.d/']), [], describeRun(fresh));
+    fs.writeFileSync(out, 'old');
+    const again = runLodpipe([DUCK, '-o', out, '--depfile', path.join(dir, 'dep.d')]);
+    assert.deepEqual(refusalProblems(again, 4, 'dep.d', dir, ['dep.d/', 'out.glb']), [], describeRun(again));
+    assert.equal(fs.readFileSync(out, 'utf8'), 'old');
+  });
+  await t.test('simplify: a write failing on a later OBJ leaves none of them (ulimit -f)', (st) => {
+    const dir = tempDir(st);
+    // ShapeCollection: mesh0's OBJs are about 31 KB, mesh5_level0.obj about 35 KB: the limit stops at mesh5
+    const r = runLodpipe(['simplify', corpusPath('scenes/ShapeCollection.glb'), dir, '-q'],
+      { prefix: ['bash', '-c', 'ulimit -f 34 && exec "$@"', 'bash'] });
+    assert.deepEqual(refusalProblems(r, 4, 'mesh5_level0.obj', dir), [], describeRun(r));
+  });
+  await t.test('one exit code per failure class whether OUT exists or not: a folder 4, over the size limit 2', (st) => {
+    const dir = tempDir(st);
+    const folder = path.join(dir, 'dir.glb');
+    fs.mkdirSync(folder);
+    const big = path.join(dir, 'big.glb');
+    fs.writeFileSync(big, '');
+    fs.truncateSync(big, 3 * 1024 ** 3); // sparse: 3 GiB declared, nothing stored
+    const out = path.join(dir, 'out.glb');
+    const p = [];
+    for (const exists of [false, true]) {
+      if (exists) fs.writeFileSync(out, 'old');
+      for (const [input, code] of [[folder, 4], [big, 2]]) {
+        for (const args of [[input, '-o', out], ['inspect', input], ['check', input]]) {
+          const r = runLodpipe(args);
+          p.push(...refusalProblems(r, code, path.basename(input), null).map((x) => `${args.join(' ')} (OUT ${exists ? 'present' : 'absent'}): ${x}`));
+        }
+      }
+    }
+    assert.deepEqual(p, []);
+  });
+  await t.test('batch --json: a failed file\'s "error" is its failure line, not a warning printed before it', (st) => {
+    const dir = tempDir(st);
+    const src = path.join(dir, 'src');
+    fs.mkdirSync(src);
+    fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'suzanne.glb')); // loads with a warning
+    const built = path.join(dir, 'built');
+    fs.mkdirSync(built);
+    fs.mkdirSync(path.join(built, 'suzanne.glb')); // its output path is a folder: the job fails writing
+    const r = runLodpipe(['batch', src, '-o', built, '--json']);
+    assert.equal(r.status, 5, describeRun(r));
+    assert.match(r.stderr, /suzanne\.glb: warning: /, 'precondition: the job warned before failing');
+    const res = JSON.parse(r.stdout).results[0];
+    assert.equal(res.status, 'failed');
+    assert.doesNotMatch(res.error, /warning/, res.error);
+    assert.match(res.error, /cannot write .*suzanne\.glb/, res.error);
+  });
+  await t.test('a camera giving infinite distances or culling everything -> exit 1, one line, nothing written', (st) => {
+    const dir = tempDir(st);
+    const out = path.join(dir, 'out.glb');
+    const p = [];
+    for (const args of [['--fov-y', '1e-320'], ['--pixel-error', '1e-320'], ['--pixel-error', '1080'],
+      ['--pixel-error', '800', '--viewport-height', '720']]) {
+      const r = runLodpipe([DUCK, '-o', out, ...args]);
+      p.push(...refusalProblems(r, 1, args[0].replace(/^--/, ''), dir).map((x) => `${args.join(' ')}: ${x}`));
+    }
+    const ok = runLodpipe([DUCK, '-o', out, '--pixel-error', '1079', '--fov-y', '1e-6', '-q']);
+    if (ok.status !== 0) p.push(`a narrow but finite camera: ${describeRun(ok)}`);
+    assert.deepEqual(p, []);
+  });
+});
+
 // extensionsRequired (README "What the loader accepts"): an extension that only concerns materials, or one the
 // chain carries to its levels (KHR_animation_pointer, KHR_node_visibility), does not stop the run; one lodpipe
 // cannot honour does (exit 2, naming it).

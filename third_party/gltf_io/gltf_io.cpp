@@ -377,11 +377,16 @@ void erase_ext(ojson &o, const char *name)
     if (e->empty()) o.erase("extensions");
 }
 
-// Reads the input file whole. A pipe (`lodpipe <(...)`, /dev/stdin) and a
-// file whose size stat does not know (/proc) are read to their end; a
-// directory or a device is refused (reading /dev/zero would never end).
-bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out, std::string *why)
+// Reads the input file whole into *out. A pipe (`lodpipe <(...)`, /dev/stdin)
+// and a file whose size stat does not know (/proc) are read to their end; a
+// directory or a device is refused (reading /dev/zero would never end). On
+// failure *why says what went wrong and *code its class, whatever errno an
+// earlier call left: GLTF_IO when the file cannot be read as one (missing,
+// unreadable, a directory or a device), GLTF_INVALID when it is larger than
+// cap (a loader limit, not an I/O error).
+bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out, std::string *why, int *code)
 {
+    *code = GLTF_IO;
     struct stat st;
     if (stat(path.c_str(), &st) != 0) {
         *why = std::string("cannot read (") + strerror(errno) + ")";
@@ -398,6 +403,7 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
     const std::string too_large = "is larger than the " + std::to_string(cap) + "-byte limit";
     if (uint64_t(st.st_size) > cap) {
         *why = too_large;
+        *code = GLTF_INVALID;
         return false;
     }
     FILE *f = fopen(path.c_str(), "rb");
@@ -411,6 +417,7 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
     for (size_t got; ok && (got = fread(chunk, 1, sizeof chunk, f)) > 0;) {
         if (uint64_t(out->size()) + got > cap) {
             *why = too_large;
+            *code = GLTF_INVALID;
             ok = false;
         } else {
             out->insert(out->end(), chunk, chunk + got);
@@ -1214,7 +1221,8 @@ void load(gltf_doc *doc, const std::string &path, const gltf_load_options &opt)
     const uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
     std::vector<uint8_t> file;
     std::string why;
-    if (!read_file(path, cap, &file, &why)) fail(errno == ENOENT || why.compare(0, 11, "cannot read") == 0 ? GLTF_IO : GLTF_INVALID, why);
+    int code = GLTF_OK;
+    if (!read_file(path, cap, &file, &why, &code)) fail(code, why);
     load_bytes(doc, path, file, opt);
 }
 
