@@ -106,7 +106,9 @@ static int set_json(gltf_doc *doc, lp_error *err, const char *value, const char 
 }
 
 /* Rewrites accessor a's data in the new vertex order, in place: it keeps its
- * number and JSON and points at a new bufferView (sparse data folded in). */
+ * number and JSON and points at a new bufferView (sparse data folded in),
+ * which takes the old view's name and extras (the old view, unused now, is
+ * dropped when the document is written). */
 static int reorder_accessor(gltf_doc *doc, int64_t a, const uint32_t *new_of_old, uint32_t vertex_count,
                             lp_error *err)
 {
@@ -129,7 +131,15 @@ static int reorder_accessor(gltf_doc *doc, int64_t a, const uint32_t *new_of_old
     free(raw);
     free(out);
     if (view < 0) return lp_fail(err, LP_INVALID, "out of memory");
-    char value[32];
+    char value[32], from[96], to[96];
+    snprintf(from, sizeof from, "/accessors/%lld/bufferView", (long long)a);
+    char *old_view = gltf_get_json(doc, from);
+    for (const char *const *key = (const char *const[]){"name", "extras", NULL}; old_view && *key; ++key) {
+        snprintf(from, sizeof from, "/bufferViews/%s/%s", old_view, *key);
+        snprintf(to, sizeof to, "/bufferViews/%lld/%s", (long long)view, *key);
+        gltf_copy_json(doc, from, to); /* absent: nothing to keep */
+    }
+    free(old_view);
     snprintf(value, sizeof value, "%lld", (long long)view);
     rc = set_json(doc, err, value, "/accessors/%lld/bufferView", (long long)a);
     gltf_remove_jsonf(doc, "/accessors/%lld/byteOffset", (long long)a);

@@ -562,6 +562,23 @@ test('mesh extras, extensions and "/meshes/M/weights" pointer channels follow to
   });
 });
 
+// A reordered accessor's data moves to a new bufferView (README "Output format"); the view it leaves had a
+// name and extras a pipeline may rely on (QA: both were dropped with the old view). They come along.
+test('reordered vertex data: the new bufferView keeps the old view\'s name and extras', { skip: skipRuns }, async (t) => {
+  const input = cowVariant(tempDir(t), 'cow_named_view.gltf', (j) => {
+    const view = j.accessors[j.meshes[0].primitives[0].attributes.POSITION].bufferView;
+    Object.assign(j.bufferViews[view], { name: 'cow vertices', extras: { source: 'scan', id: 7 } });
+  });
+  const run = await checkedStructure(t, input, 'cow with a named vertex view', 'the main job');
+  await t.test('the POSITION accessor\'s view: reordered, named and with extras as before', () => {
+    const j = readRaw(run.out).json;
+    const prim = j.meshes[0].primitives[0];
+    assert.ok(j.meshes.length > 1, 'a chain was written (so the vertices were reordered)');
+    const view = j.bufferViews[j.accessors[prim.attributes.POSITION].bufferView];
+    assert.deepEqual([view.name, view.extras], ['cow vertices', { source: 'scan', id: 7 }]);
+  });
+});
+
 // One morph weight by pointer (QA): the glTF object model's "/nodes/N/weights/K" and "/meshes/M/weights/K"
 // animate a single weight (three.js plays them). Such a channel follows to every LOD node and LOD mesh like a
 // "weights" channel, and one on a node that hands its mesh to a "<node>_mesh" carrier (the node has a
