@@ -562,7 +562,17 @@ static int start_job(batch *b, job *j)
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
     posix_spawn_file_actions_adddup2(&actions, err_pipe[1], STDERR_FILENO);
-    int rc = posix_spawn(&j->pid, b->self, &actions, NULL, argv, environ);
+    /* SIGTERM is how the batch stops a job: the job must not inherit it
+     * ignored (stopsig leaves an ignored signal ignored) */
+    posix_spawnattr_t attr;
+    posix_spawnattr_init(&attr);
+    sigset_t term;
+    sigemptyset(&term);
+    sigaddset(&term, SIGTERM);
+    posix_spawnattr_setsigdefault(&attr, &term);
+    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGDEF);
+    int rc = posix_spawn(&j->pid, b->self, &actions, &attr, argv, environ);
+    posix_spawnattr_destroy(&attr);
     posix_spawn_file_actions_destroy(&actions);
     close(out_pipe[1]);
     close(err_pipe[1]);
@@ -673,19 +683,23 @@ static int read_job_summary(const batch *b, job *j)
 }
 
 /* The job's failure line for the summary: its last stderr line that is not
- * a warning (a job reports its error last, after the warnings of loading),
- * else its last line; `fallback` when it printed nothing. */
+ * a warning (a job reports its error last, after the warnings of loading);
+ * else `fallback`, the batch's own line (the job was killed, or its summary
+ * could not be read back) when there is one; else its last line. */
 static void note_error(job *j, const char *fallback)
 {
     const char *text = j->err.size ? j->err.bytes : fallback, *pick = NULL, *last = NULL;
+    static const char kWarning[] = ": warning: ";
     for (const char *line = text; *line; line += strcspn(line, "\n"), line += *line == '\n') {
         const size_t len = strcspn(line, "\n");
         if (!len) continue;
         last = line;
-        const char *warning = strstr(line, ": warning: ");
-        if (!warning || warning >= line + len) pick = line;
+        int warning = 0;
+        for (size_t k = 0; !warning && k + sizeof kWarning - 1 <= len; ++k)
+            warning = memcmp(line + k, kWarning, sizeof kWarning - 1) == 0;
+        if (!warning) pick = line;
     }
-    text = pick ? pick : last ? last : text;
+    text = pick ? pick : fallback[0] ? fallback : last ? last : text;
     size_t n = strcspn(text, "\n");
     j->error = malloc(n + 1);
     if (j->error) {
@@ -960,7 +974,7 @@ static void print_table(const batch *b, const totals *t, double wall)
            wall > 0 ? (double)t->triangles_in / wall : 0.0);
     for (size_t i = 0; i < b->job_count; ++i)
         if (b->jobs[i].state == JOB_FAILED) { /* a name's control characters escaped, as on stderr */
-            char line[4200];
+            char line[4 * 4096 + 64]; /* an escaped byte takes up to 4 */
             printf("%s\n", lp_line(line, sizeof line, "failed: %s (exit %d)", b->jobs[i].rel, b->jobs[i].exit_code));
         }
 }

@@ -560,6 +560,7 @@ static int cmd_simplify(const cli *c)
     FILE *j = open_memstream(&json, &json_size);
     /* every OBJ and the JSON appear together at the end, or none does */
     output_set *set = NULL;
+    if (!j) lp_fail(&err, LP_IO, "out of memory");
     if (!j || output_set_begin(&set, &err)) {
         if (j) fclose(j);
         free(json);
@@ -1083,10 +1084,17 @@ static int parse(int argc, char **argv, cli *c)
     for (size_t k = 0; !rc && k < config_argc; k += 2)
         if ((rc = config_set(&c->config, config_args[k], config_args[k + 1], &err)) != 0)
             lp_say("%s", err.msg);
-    /* a rule between keys: the file and the flags together broke it */
-    if (!rc && (rc = config_check(&c->config, &err)) != 0)
-        lp_say("%s%s: %s", c->config_path ? c->config_path : "the command line",
-               c->config_path ? " with the command line" : "", err.msg);
+    /* a rule between keys holds for the settings in effect; the error names
+     * the config file when the file breaks it on its own (the flags did not
+     * mend it), else the command line (the message names key and flag) */
+    if (!rc && (rc = config_check(&c->config, &err)) != 0) {
+        lp_config file_only;
+        lp_error ignored = {0, ""};
+        config_defaults(&file_only);
+        const int file_alone = c->config_path && config_load(&file_only, c->config_path, &ignored) == 0 &&
+                               config_check(&file_only, &ignored) != 0;
+        lp_say("%s: %s", file_alone ? c->config_path : "the command line", err.msg);
+    }
     free(config_args);
     if (rc) return rc;
     for (size_t k = 0; k < c->config.lod.level_count && k < SIMPLIFY_MAX_LEVELS; ++k)

@@ -2,10 +2,12 @@
 #include "output.h"
 #include "stopsig.h"
 
+#include <assert.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <pthread.h>
 #include <signal.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -52,15 +54,9 @@ static int make_parents(const char *base, const char *name, lp_error *err)
     return LP_OK;
 }
 
-static int write_temp(const char *target, const uint8_t *bytes, size_t size, char *temp, size_t temp_size,
-                      lp_error *err)
+/* Writes bytes to fd, a new temp file for target, and closes it. */
+static int fill_temp(int fd, const char *target, const uint8_t *bytes, size_t size, lp_error *err)
 {
-    snprintf(temp, temp_size, "%s.lodpipe-XXXXXX", target);
-    int fd = mkstemp(temp);
-    if (fd < 0) {
-        temp[0] = 0;
-        return lp_fail(err, LP_IO, "cannot create a file beside %s (%s)", target, strerror(errno));
-    }
     mode_t mask = umask(0);
     umask(mask);
     fchmod(fd, 0666 & ~mask);
@@ -84,6 +80,16 @@ static int write_temp(const char *target, const uint8_t *bytes, size_t size, cha
     return LP_OK;
 }
 
+/* Refuses a target the rename could not replace, before any is renamed:
+ * rename(2) fails over a folder, and a failure between two renames would
+ * leave the output half replaced. */
+static int target_replaceable(const char *target, lp_error *err)
+{
+    struct stat st;
+    if (lstat(target, &st) == 0 && S_ISDIR(st.st_mode)) return lp_fail(err, LP_IO, "cannot write %s (Is a directory)", target);
+    return LP_OK;
+}
+
 int output_check_folder(const char *main_path, lp_error *err)
 {
     char base[4096];
@@ -92,16 +98,18 @@ int output_check_folder(const char *main_path, lp_error *err)
     if (stat(base, &st) != 0) return lp_fail(err, LP_IO, "output folder %s does not exist", base);
     if (!S_ISDIR(st.st_mode)) return lp_fail(err, LP_IO, "output folder %s is not a folder", base);
     if (access(base, W_OK) != 0) return lp_fail(err, LP_IO, "output folder %s is not writable", base);
-    return LP_OK;
+    return target_replaceable(main_path, err);
 }
 
 /* The set being written, for a signal that ends the process midway (Ctrl-C,
  * a batch stopping its jobs): its handler removes the temp files, so that no
  * "OUT.lodpipe-XXXXXX" is left behind, then ends the process by the same
- * signal. The lists change only with the stop signals blocked, so the
- * handler never sees them half-grown. One set at a time per process. */
+ * signal. The handler reads temps[0 .. count); they change only with the stop
+ * signals blocked (a temp is created and listed in one such step, so the
+ * handler sees whole names of files this process made). One set at a time
+ * per process, and no other thread while it exists (output.h). */
 struct output_set {
-    char (*temps)[4200];   /* "" once renamed, or not written (identical target) */
+    char (*temps)[4200];   /* "" once renamed */
     char (*targets)[4200];
     size_t count, capacity;
     stopsig_saved before;
@@ -120,16 +128,19 @@ static void remove_temps_and_die(int sig)
     raise(sig);
 }
 
-static void stop_signals(sigset_t *set)
+static void block_stop_signals(sigset_t *old)
 {
-    sigemptyset(set);
-    sigaddset(set, SIGINT);
-    sigaddset(set, SIGTERM);
-    sigaddset(set, SIGHUP);
+    sigset_t stops;
+    sigemptyset(&stops);
+    sigaddset(&stops, SIGINT);
+    sigaddset(&stops, SIGTERM);
+    sigaddset(&stops, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &stops, old);
 }
 
 int output_set_begin(output_set **out, lp_error *err)
 {
+    assert(!g_set); /* one set at a time: the handler knows one */
     output_set *set = calloc(1, sizeof *set);
     if (!set) return lp_fail(err, LP_IO, "out of memory");
     g_set = set;
@@ -140,33 +151,40 @@ int output_set_begin(output_set **out, lp_error *err)
 
 int output_stage(output_set *set, const char *target, const uint8_t *bytes, size_t size, lp_error *err)
 {
+    char temp[4200];
+    if (target_replaceable(target, err)) return LP_IO;
+    if (snprintf(temp, sizeof temp, "%s.lodpipe-XXXXXX", target) >= (int)sizeof temp)
+        return lp_fail(err, LP_IO, "path too long: %s", target);
+    sigset_t old;
+    block_stop_signals(&old);
+    int rc = LP_OK, fd = -1;
     if (set->count == set->capacity) {
         const size_t capacity = set->capacity ? 2 * set->capacity : 8;
-        sigset_t stops, old;
-        stop_signals(&stops);
-        pthread_sigmask(SIG_BLOCK, &stops, &old);
         char(*temps)[4200] = realloc(set->temps, capacity * sizeof *temps);
         if (temps) set->temps = temps;
         char(*targets)[4200] = temps ? realloc(set->targets, capacity * sizeof *targets) : NULL;
         if (targets) set->targets = targets, set->capacity = capacity;
-        pthread_sigmask(SIG_SETMASK, &old, NULL);
-        if (!targets) return lp_fail(err, LP_IO, "out of memory");
+        else rc = lp_fail(err, LP_IO, "out of memory");
     }
-    const size_t i = set->count;
-    snprintf(set->targets[i], sizeof set->targets[i], "%s", target);
-    set->temps[i][0] = 0;
-    set->count++;
-    return write_temp(target, bytes, size, set->temps[i], sizeof set->temps[i], err);
+    if (!rc && (fd = mkstemp(temp)) < 0) rc = lp_fail(err, LP_IO, "cannot create a file beside %s (%s)", target, strerror(errno));
+    if (!rc) {
+        memcpy(set->targets[set->count], target, strlen(target) + 1);
+        memcpy(set->temps[set->count], temp, strlen(temp) + 1);
+        atomic_signal_fence(memory_order_seq_cst); /* listed whole before it is counted */
+        set->count++;
+    }
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    return rc ? rc : fill_temp(fd, target, bytes, size, err);
 }
 
 int output_commit(output_set *set, lp_error *err)
 {
+    for (size_t i = 0; i < set->count; ++i)
+        if (set->temps[i][0] && target_replaceable(set->targets[i], err)) return LP_IO;
     /* held from the first rename on: a stop then takes effect after the
      * last one (output_set_end), never between two */
     if (!set->held) {
-        sigset_t stops;
-        stop_signals(&stops);
-        pthread_sigmask(SIG_BLOCK, &stops, &set->held_before);
+        block_stop_signals(&set->held_before);
         set->held = 1;
     }
     for (size_t i = 0; i < set->count; ++i) {
@@ -181,11 +199,14 @@ int output_commit(output_set *set, lp_error *err)
 void output_set_end(output_set *set)
 {
     if (!set) return;
+    sigset_t old;
+    block_stop_signals(&old); /* the handler must not read the set while it goes */
     for (size_t i = 0; i < set->count; ++i)
         if (set->temps[i][0]) unlink(set->temps[i]);
     stopsig_restore(&set->before);
     g_set = NULL;
-    if (set->held) pthread_sigmask(SIG_SETMASK, &set->held_before, NULL);
+    /* a stop that came meanwhile is taken now, by the disposition restored */
+    pthread_sigmask(SIG_SETMASK, set->held ? &set->held_before : &old, NULL);
     free(set->temps);
     free(set->targets);
     free(set);

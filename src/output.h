@@ -1,9 +1,12 @@
 /* output.h - writing a set of files so that either all of them appear or none.
  *
  * Each file is written to a temp file beside its target, then all are renamed
- * into place (the main file last). On any failure every temp file is removed,
- * no existing file is touched, and the error (LP_IO) names the path and the
- * reason (missing folder, read-only folder, disk full, ...). A stop signal
+ * into place (the main file last). On any failure every temp file is removed
+ * and the error (LP_IO) names the path and the reason (missing folder,
+ * read-only folder, disk full, a folder where a file goes, ...). Every target
+ * is checked before the first rename, so no existing file is touched unless
+ * the file system fails between two renames (an I/O error then leaves the
+ * files renamed so far). A stop signal
  * (stopsig.h) while the temp files are written removes them and ends the
  * process by that signal; one that comes while they are renamed takes effect
  * after the last rename, so the set is never left half renamed. An auxiliary
@@ -46,17 +49,20 @@ int output_write_all(const char *main_path, const gltf_out_file *files, size_t c
  * file as it is ready (its temp file is written at once, so the bytes need
  * not be kept), then output_commit, which renames them in the order staged;
  * output_set_end always, which removes what was not renamed and restores the
- * signals. The target's folder must exist (output_check_folder). */
+ * signals. The target's folder must exist (output_check_folder). One set at
+ * a time; stage and commit only while no other thread runs (the stop signals
+ * are held by the calling thread's mask, and a worker thread taking one then
+ * would find the set changing). */
 typedef struct output_set output_set;
 int output_set_begin(output_set **set, lp_error *err);
 int output_stage(output_set *set, const char *target, const uint8_t *bytes, size_t size, lp_error *err);
 int output_commit(output_set *set, lp_error *err);
 void output_set_end(output_set *set);
 
-/* LP_OK when the folder of main_path exists and may be written to, else the
- * error output_write_all would give (LP_IO). Callers check it before a long
- * job too, so that a mistyped folder fails at once rather than at the end;
- * output_write_all checks again. */
+/* LP_OK when the folder of main_path exists and may be written to, and
+ * main_path is not a folder, else the error output_write_all would give
+ * (LP_IO). Callers check it before a long job too, so that a mistyped folder
+ * fails at once rather than at the end; output_write_all checks again. */
 int output_check_folder(const char *main_path, lp_error *err);
 
 /* 1 when a and b name the same existing file. */

@@ -341,3 +341,23 @@ test('a batch stopped by SIGTERM stops its job, leaves no temp files, keeps what
   const again = batch(src, out);
   assert.ok(again.byStatus.cached.includes('a.glb'), `a.glb is cached on the next run: ${JSON.stringify(again.byStatus)}`);
 });
+
+// A batch started with SIGTERM ignored (a script's `trap '' TERM`) and stopped by Ctrl-C: it stops its jobs with
+// SIGTERM, which they must not inherit ignored (QA review), else the running job finishes its file first.
+test('a batch whose parent ignores SIGTERM still stops its running job (SIGINT)', { skip }, async (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src');
+  const out = path.join(dir, 'out');
+  fs.mkdirSync(src);
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'a.glb'));
+  fs.copyFileSync(corpusPath('scans/bunny.glb'), path.join(src, 'b.glb'));
+  const child = spawn('sh', ['-c', 'trap "" TERM; exec "$@"', 'sh', lodpipeBin, 'batch', src, '-o', out, '-j', '1'], { stdio: 'ignore' });
+  const exited = new Promise((resolve) => child.on('exit', (code, signal) => resolve({ code, signal })));
+  const deadline = Date.now() + 300000;
+  while (!fs.existsSync(path.join(out, 'a.glb')) && Date.now() < deadline) await new Promise((r) => setTimeout(r, 100));
+  assert.ok(fs.existsSync(path.join(out, 'a.glb')), 'the first file was built');
+  child.kill('SIGINT');
+  const end = await exited;
+  assert.equal(end.signal, 'SIGINT', `the batch ends by the signal (exit ${end.code})`);
+  assert.ok(!fs.existsSync(path.join(out, 'b.glb')), 'the running job was stopped, not left to finish b.glb');
+});

@@ -406,7 +406,9 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
         *code = GLTF_INVALID;
         return false;
     }
-    FILE *f = fopen(path.c_str(), "rb");
+    // closed on every way out, an allocation failure's exception included
+    std::unique_ptr<FILE, int (*)(FILE *)> file(fopen(path.c_str(), "rb"), fclose);
+    FILE *f = file.get();
     if (!f) {
         *why = std::string("cannot read (") + strerror(errno) + ")";
         return false;
@@ -427,7 +429,6 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
         *why = std::string("cannot read (") + strerror(errno) + ")";
         ok = false;
     }
-    fclose(f);
     return ok;
 }
 
