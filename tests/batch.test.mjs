@@ -314,25 +314,37 @@ test('batch and depfile usage errors exit 1 with one line', { skip }, (t) => {
   assert.ok(!fs.existsSync(path.join(dir, 'o2')), 'no output folder for a missing source');
 });
 
-// Stopping a batch (kill -TERM, as a CI job's timeout does): the running job is stopped too (no process left
-// behind writing into OUT_DIR), the jobs' temporary configuration and any temp file are removed, what was
-// built is recorded (a rerun finds it cached), and the batch ends by the signal.
-test('a batch stopped by SIGTERM stops its job, leaves no temp files, keeps what was built', { skip }, async (t) => {
+/**
+ * A batch (-j 1) over a small a.glb, the bunny as b.glb and `more` small files, started through `prefix` (a
+ * shell that sets up signals, or nothing); once a.glb is built (b.glb's job is running), `signal` is sent.
+ * Returns { src, out, end: { code, signal } }.
+ */
+async function stoppedBatch(t, signal, { prefix = [], more = 0 } = {}) {
   const dir = tempDir(t);
   const src = path.join(dir, 'src');
   const out = path.join(dir, 'out');
   fs.mkdirSync(src);
-  // a small file first (built, then the stop), a large one second (stopped while it runs)
   fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'a.glb'));
   fs.copyFileSync(corpusPath('scans/bunny.glb'), path.join(src, 'b.glb'));
-  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'c.glb'));
-  const child = spawn(lodpipeBin, ['batch', src, '-o', out, '-j', '1'], { stdio: 'ignore' });
-  const exited = new Promise((resolve) => child.on('exit', (code, signal) => resolve({ code, signal })));
+  for (let k = 0; k < more; ++k) fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, `c${k}.glb`));
+  const argv = [...prefix, lodpipeBin, 'batch', src, '-o', out, '-j', '1'];
+  const child = spawn(argv[0], argv.slice(1), { stdio: 'ignore' });
+  const exited = new Promise((resolve) => child.on('exit', (code, sig) => resolve({ code, signal: sig })));
+  // a.glb appears when its job renames it, a moment before the job ends and the batch records it: wait
+  // for b.glb's job, which the batch starts only then (a stop in between rebuilt a.glb on the next run)
+  const bJob = () => spawnSync('pgrep', ['-f', path.join(src, 'b.glb')], { encoding: 'utf8' }).stdout.trim() !== '';
   const deadline = Date.now() + 300000;
-  while (!fs.existsSync(path.join(out, 'a.glb')) && Date.now() < deadline) await new Promise((r) => setTimeout(r, 100));
+  while (!(fs.existsSync(path.join(out, 'a.glb')) && bJob()) && Date.now() < deadline) await new Promise((r) => setTimeout(r, 50));
   assert.ok(fs.existsSync(path.join(out, 'a.glb')), 'the first file was built');
-  child.kill('SIGTERM');
-  const end = await exited;
+  child.kill(signal);
+  return { src, out, end: await exited };
+}
+
+// Stopping a batch (kill -TERM, as a CI job's timeout does): the running job is stopped too (no process left
+// behind writing into OUT_DIR), the jobs' temporary configuration and any temp file are removed, what was
+// built is recorded (a rerun finds it cached), and the batch ends by the signal.
+test('a batch stopped by SIGTERM stops its job, leaves no temp files, keeps what was built', { skip }, async (t) => {
+  const { src, out, end } = await stoppedBatch(t, 'SIGTERM', { more: 1 });
   assert.equal(end.signal, 'SIGTERM', `the batch ends by the signal (exit ${end.code})`);
   const jobs = spawnSync('pgrep', ['-f', src], { encoding: 'utf8' });
   assert.equal(jobs.stdout.trim(), '', 'no job process left');
@@ -345,19 +357,7 @@ test('a batch stopped by SIGTERM stops its job, leaves no temp files, keeps what
 // A batch started with SIGTERM ignored (a script's `trap '' TERM`) and stopped by Ctrl-C: it stops its jobs with
 // SIGTERM, which they must not inherit ignored (QA review), else the running job finishes its file first.
 test('a batch whose parent ignores SIGTERM still stops its running job (SIGINT)', { skip }, async (t) => {
-  const dir = tempDir(t);
-  const src = path.join(dir, 'src');
-  const out = path.join(dir, 'out');
-  fs.mkdirSync(src);
-  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'a.glb'));
-  fs.copyFileSync(corpusPath('scans/bunny.glb'), path.join(src, 'b.glb'));
-  const child = spawn('sh', ['-c', 'trap "" TERM; exec "$@"', 'sh', lodpipeBin, 'batch', src, '-o', out, '-j', '1'], { stdio: 'ignore' });
-  const exited = new Promise((resolve) => child.on('exit', (code, signal) => resolve({ code, signal })));
-  const deadline = Date.now() + 300000;
-  while (!fs.existsSync(path.join(out, 'a.glb')) && Date.now() < deadline) await new Promise((r) => setTimeout(r, 100));
-  assert.ok(fs.existsSync(path.join(out, 'a.glb')), 'the first file was built');
-  child.kill('SIGINT');
-  const end = await exited;
+  const { out, end } = await stoppedBatch(t, 'SIGINT', { prefix: ['sh', '-c', 'trap "" TERM; exec "$@"', 'sh'] });
   assert.equal(end.signal, 'SIGINT', `the batch ends by the signal (exit ${end.code})`);
   assert.ok(!fs.existsSync(path.join(out, 'b.glb')), 'the running job was stopped, not left to finish b.glb');
 });
