@@ -172,10 +172,12 @@ int accessor_read_raw(const gltf_doc *doc, int64_t index, uint8_t **out, uint32_
     *out = NULL;
     int rc = accessor_header(doc, index, &acc, err);
     if (rc) return rc;
-    if (acc.is_matrix)
-        return lp_fail(err, LP_INVALID, "accessors[%lld]: a matrix accessor where a vector was expected",
-                       (long long)index);
     const uint32_t csize = component_size(acc.component_type);
+    /* a matrix's columns start on 4-byte boundaries: packed only with
+     * 4-byte components (inverse bind matrices are float) */
+    if (acc.is_matrix && csize != 4)
+        return lp_fail(err, LP_INVALID, "accessors[%lld]: a matrix of %u-byte components is not read", (long long)index,
+                       csize);
     const uint64_t elem = (uint64_t)csize * (uint32_t)acc.components;
     uint64_t stride = elem;
     const uint8_t *base = NULL;

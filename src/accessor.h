@@ -19,8 +19,9 @@
 /* Largest element count lodpipe accepts in one accessor (2^28). */
 #define ACCESSOR_MAX_COUNT (1u << 28)
 
-/* Decodes accessor `index` (SCALAR or VECn; matrices are refused) into
- * count * components floats in *out (caller frees). */
+/* Decodes accessor `index` (SCALAR, VECn, or a matrix of 4-byte components,
+ * column-major; other matrices are refused) into count * components floats in
+ * *out (caller frees). */
 int accessor_read_floats(const gltf_doc *doc, int64_t index, float **out, uint32_t *count,
                          uint32_t *components, lp_error *err);
 
@@ -31,7 +32,8 @@ int accessor_read_indices(const gltf_doc *doc, int64_t index, uint32_t vertex_co
 
 /* The accessor's elements as raw bytes, sparse substitution applied, tightly
  * packed (count * elem_size bytes in *out, caller frees): what a rewritten
- * copy of the accessor needs. Matrices are refused. */
+ * copy of the accessor needs. Matrices only of 4-byte components (others have
+ * padded columns). */
 int accessor_read_raw(const gltf_doc *doc, int64_t index, uint8_t **out, uint32_t *count, uint32_t *elem_size,
                       lp_error *err);
 

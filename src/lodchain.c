@@ -726,7 +726,9 @@ static int annotate_node(scene *s, int64_t node_id, uint32_t placed, uint32_t m,
     double instance_scale;
     int rc = instance_max_scale(s, node, &instance_scale, err);
     if (rc) return rc;
-    const double scale = scene_max_scale(s->nodes[placed].world) * instance_scale;
+    double stretch;
+    if ((rc = scene_mesh_stretch(s, placed, &stretch, err)) != 0) return rc;
+    const double scale = stretch * instance_scale;
     const double radius = 0.5 * diagonal * scale;
     jsonw ids = {0}, coverage = {0}, meta = {0};
     jsonw_raw(&ids, "{\"ids\":[");

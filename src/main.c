@@ -4,6 +4,7 @@
  * "lodpipe: FILE: what is wrong" and exits with the documented code
  * (status.h). Commands live in their own small functions. */
 #include <malloc.h>
+#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -176,8 +177,10 @@ static int cmd_inspect(const cli *c)
         printf("  instanced by %u node%s:", mesh->instance_count, mesh->instance_count == 1 ? "" : "s");
         for (uint32_t i = 0; i < mesh->instance_count; ++i) {
             const scene_node *n = &s.nodes[mesh->instances[i]];
-            printf(" %u \"%s\" (scale %.6g)", mesh->instances[i], one_line(name, sizeof name, n->name),
-                   scene_max_scale(n->world));
+            double stretch;
+            lp_error ignored = {0, ""};
+            if (scene_mesh_stretch(&s, mesh->instances[i], &stretch, &ignored)) stretch = NAN;
+            printf(" %u \"%s\" (scale %.6g)", mesh->instances[i], one_line(name, sizeof name, n->name), stretch);
         }
         printf("\n");
     }

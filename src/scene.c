@@ -57,14 +57,80 @@ static void local_transform(const gltf_node *n, double out[16])
     out[15] = 1.0;
 }
 
+/* The largest singular value of m's 3x3 part: the square root of the largest
+ * eigenvalue of A = M^T M (entry (i, j): column i . column j), found by
+ * Jacobi rotations, which keep A symmetric and converge in a few sweeps for
+ * 3x3. The longest column is a lower bound of it (equal without shear), so
+ * the result is never below that. */
 double scene_max_scale(const double m[16])
 {
-    double best = 0.0;
-    for (int c = 0; c < 3; ++c) {
-        double len = sqrt(m[c * 4] * m[c * 4] + m[c * 4 + 1] * m[c * 4 + 1] + m[c * 4 + 2] * m[c * 4 + 2]);
-        if (len > best) best = len;
+    double a[3][3], longest = 0.0;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            a[i][j] = m[i * 4] * m[j * 4] + m[i * 4 + 1] * m[j * 4 + 1] + m[i * 4 + 2] * m[j * 4 + 2];
+    for (int i = 0; i < 3; ++i) longest = fmax(longest, sqrt(a[i][i]));
+    for (int sweep = 0; sweep < 32; ++sweep) {
+        const double off = fabs(a[0][1]) + fabs(a[0][2]) + fabs(a[1][2]);
+        if (!(off > 1e-17 * (a[0][0] + a[1][1] + a[2][2]))) break; /* diagonal to rounding (or NaN) */
+        for (int p = 0; p < 2; ++p)
+            for (int q = p + 1; q < 3; ++q) {
+                if (a[p][q] == 0.0) continue;
+                const double theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+                const double t = fabs(theta) > 1e150 ? 0.5 / theta
+                                                      : (theta >= 0 ? 1.0 : -1.0) / (fabs(theta) + sqrt(theta * theta + 1.0));
+                const double c = 1.0 / sqrt(t * t + 1.0), sn = t * c, apq = a[p][q];
+                const int r = 3 - p - q; /* the third index */
+                const double arp = a[r][p], arq = a[r][q];
+                a[p][p] -= t * apq;
+                a[q][q] += t * apq;
+                a[p][q] = a[q][p] = 0.0;
+                a[r][p] = a[p][r] = c * arp - sn * arq;
+                a[r][q] = a[q][r] = sn * arp + c * arq;
+            }
     }
-    return best;
+    const double top = fmax(a[0][0], fmax(a[1][1], a[2][2]));
+    return fmax(longest, top > 0.0 ? sqrt(top) : 0.0);
+}
+
+int scene_mesh_stretch(const scene *s, uint32_t node, double *stretch, lp_error *err)
+{
+    const int64_t skin = s->nodes[node].skin;
+    *stretch = scene_max_scale(s->nodes[node].world);
+    if (skin < 0) return LP_OK;
+    char pointer[64];
+    snprintf(pointer, sizeof pointer, "/skins/%lld/joints", (long long)skin);
+    char *joints = gltf_get_json(s->doc, pointer);
+    snprintf(pointer, sizeof pointer, "/skins/%lld/inverseBindMatrices", (long long)skin);
+    char *ibm_index = gltf_get_json(s->doc, pointer);
+    float *ibm = NULL;
+    uint32_t ibm_count = 0, components = 0;
+    int rc = ibm_index ? accessor_read_floats(s->doc, strtoll(ibm_index, NULL, 10), &ibm, &ibm_count, &components, err)
+                       : LP_OK;
+    free(ibm_index);
+    if (!rc && components != 16) ibm_count = 0; /* not MAT4 (the loader keeps what the validator flags) */
+    double best = 0.0;
+    uint32_t k = 0;
+    /* joints: a JSON array of node indices the loader checked */
+    for (const char *p = joints; !rc && p && *p; ++k) {
+        while (*p && (*p < '0' || *p > '9')) ++p;
+        if (!*p) break;
+        char *end;
+        const unsigned long long j = strtoull(p, &end, 10);
+        p = end;
+        if (j >= s->node_count) continue;
+        double bind[16], m[16];
+        for (int i = 0; i < 16; ++i) bind[i] = k < ibm_count ? (double)ibm[16 * (size_t)k + i] : (i % 5 == 0);
+        mat_mul(s->nodes[j].world, bind, m);
+        best = fmax(best, scene_max_scale(m));
+    }
+    free(joints);
+    free(ibm);
+    if (rc) return rc;
+    if (!isfinite(best) || best > FLT_MAX)
+        return lp_fail(err, LP_INVALID, "nodes[%u]: a joint of skins[%lld] stretches the mesh beyond float range", node,
+                       (long long)skin);
+    if (k) *stretch = best;
+    return LP_OK;
 }
 
 /* ---- node graph -------------------------------------------------------------- */

@@ -125,9 +125,19 @@ void scene_release_mesh_data(scene *s, uint32_t mesh);
  * accessors of this mesh must not have changed since the load. */
 int scene_reload_mesh_data(scene *s, uint32_t mesh, lp_error *err);
 
-/* Largest axis scale of a column-major 4x4 transform (length of the longest
- * of the first three columns). */
+/* How much a column-major 4x4 transform can stretch a length: the largest
+ * singular value of its 3x3 part (the longest column when it has no shear;
+ * under shear the longest column is less). */
 double scene_max_scale(const double m[16]);
+
+/* How much node `node` stretches mesh-space lengths into the world, in
+ * *stretch: scene_max_scale of its world transform; for a skinned node, whose
+ * own transform glTF ignores (its joints place the mesh), the largest over
+ * the skin's joints of scene_max_scale(joint world * inverse bind matrix), in
+ * the rest pose (the node transforms as read, as for animated nodes).
+ * Returns LP_OK, or an error (an unreadable inverseBindMatrices accessor, a
+ * joint beyond float range). */
+int scene_mesh_stretch(const scene *s, uint32_t node, double *stretch, lp_error *err);
 
 /* Node n's own transform (its matrix, or its TRS), column-major, as the
  * document holds it now. */

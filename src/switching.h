@@ -1,7 +1,9 @@
 /* switching.h - when a level may replace a finer one on screen (DESIGN.md §8).
  *
- * A level whose certified object-space error is e, on a node whose world
- * transform scales by s (largest axis), seen by a camera with vertical field
+ * A level whose certified object-space error is e, on a node that stretches
+ * its mesh into the world by at most s (scene_mesh_stretch: the largest
+ * singular value of the world transform, or of a skinned node's joints), seen
+ * by a camera with vertical field
  * of view fov_y on a viewport H pixels high, differs from the original by at
  * most p pixels on screen beyond the distance
  *

@@ -45,7 +45,7 @@ import {
 } from './lib/gltf.mjs';
 import {
   CHAIN_ASPECTS, DEFAULT_CAMERA, DEFAULT_LADDER, HAUSDORFF, analyzeChain, compareReorderedPrimitive, dropRuleProblems, edgeCensus, expectedSwitching,
-  fileSetBytes, fmt, formatProblems, hausdorffAvailable, isTrianglePrim, matchLadder, maxColumnScale, newValidatorErrorMessages,
+  fileSetBytes, fmt, formatProblems, hausdorffAvailable, isTrianglePrim, matchLadder, maxColumnScale, maxStretch, newValidatorErrorMessages,
   CHAIN_EXPECTED_MIN_TRIANGLES, deathOrderProblems, prefixProblems, primTriangles, rawPrimGeometry, relClose, worldMatrices,
 } from './lib/lodcheck.mjs';
 import { FIXTURE_DIAGONAL, TENT_H, buildFixture, setRecordedTriangles, writeFixture } from './lib/lodfixture.mjs';
@@ -559,6 +559,55 @@ test('mesh extras, extensions and "/meshes/M/weights" pointer channels follow to
       const m = j.meshes[j.nodes[id].mesh];
       assert.deepEqual([m.extras, m.extensions, m.weights], [{ targetNames: ['lift'] }, { EXT_lodpipe_test_mesh: { kept: true } }, [0]]);
     }
+  });
+});
+
+// How far a level may be switched depends on how much the node stretches its mesh on screen (QA): under shear
+// the longest column of the world matrix is less than the stretch (its largest singular value), and a skinned
+// mesh is placed by its joints, glTF ignoring the node's own transform. The chain checker recomputes every
+// distance with its own stretch (lodcheck.mjs maxStretch, meshStretch); here also the ratio distance / error.
+test('switching distances follow the stretch: a sheared node, and a skinned node placed by its joints', { skip: skipRuns }, async (t) => {
+  const perError = DEFAULT_CAMERA.viewport_height / (2 * Math.tan(DEFAULT_CAMERA.fov_y / 2) * DEFAULT_CAMERA.pixel_error);
+  const ratios = (out) => {
+    const j = readRaw(out).json;
+    const n = j.nodes.find((x) => x.extensions?.MSFT_lod && x.extras?.lodpipe);
+    assert.ok(n, 'a chain with its metadata');
+    return n.extras.lodpipe.levels.slice(1).map((l) => l.distance / l.error / perError);
+  };
+  await t.test('shear: a 45-degree turn under a (1, 10, 1) scale stretches by 10, its longest column only 7.1', async (st) => {
+    const input = cowVariant(tempDir(st), 'cow_sheared.gltf', (j, node) => {
+      j.nodes[node].rotation = [0, 0, Math.sin(Math.PI / 8), Math.cos(Math.PI / 8)]; // 45 degrees about z
+      const parent = j.nodes.push({ name: 'squash', scale: [1, 10, 1], children: [node] }) - 1;
+      const sc = j.scenes[j.scene ?? 0];
+      sc.nodes = sc.nodes.map((x) => (x === node ? parent : x));
+    });
+    const run = await checkedStructure(st, input, 'sheared cow', 'the main job');
+    const { world } = worldMatrices(readRaw(run.out).json);
+    const cow = readRaw(run.out).json.nodes.findIndex((x) => x.extensions?.MSFT_lod);
+    assert.ok(relClose(maxStretch(world[cow]), 10, 1e-12) && maxColumnScale(world[cow]) < 7.2, `premise: stretch ${maxStretch(world[cow])}, longest column ${maxColumnScale(world[cow])}`);
+    for (const r of ratios(run.out)) assert.ok(relClose(r, 10, 1e-9), `distance / (error * H / (2 tan(fov/2) p)) = ${r}, expected 10`);
+  });
+  await t.test('skin: the node sits under a 0.01 scale, its one joint at scale 2: distances for 2', async (st) => {
+    const input = cowVariant(tempDir(st), 'cow_skinned.gltf', (j, node, addAccessor) => {
+      const prims = j.meshes[0].primitives;
+      const count = j.accessors[prims[0].attributes.POSITION].count;
+      assert.ok(prims.every((p) => j.accessors[p.attributes.POSITION].count === count), 'premise: one vertex set');
+      const joints = new Uint8Array(4 * count); // all on joint 0
+      const jb = j.buffers.push({ byteLength: joints.byteLength, uri: `data:application/octet-stream;base64,${Buffer.from(joints).toString('base64')}` }) - 1;
+      const jv = j.bufferViews.push({ buffer: jb, byteLength: joints.byteLength }) - 1;
+      const jointsAcc = j.accessors.push({ bufferView: jv, componentType: 5121, count, type: 'VEC4' }) - 1;
+      const weights = addAccessor([...Array(count)].flatMap(() => [1, 0, 0, 0]), 'VEC4', count);
+      for (const p of prims) Object.assign(p.attributes, { JOINTS_0: jointsAcc, WEIGHTS_0: weights });
+      const ibm = addAccessor([0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 1], 'MAT4', 1);
+      const joint = j.nodes.push({ name: 'bone', scale: [4, 4, 4] }) - 1; // 4 * inverse bind 0.5 = 2
+      j.skins = [{ joints: [joint], inverseBindMatrices: ibm }];
+      j.nodes[node].skin = 0;
+      const parent = j.nodes.push({ name: 'armature', scale: [0.01, 0.01, 0.01], children: [node] }) - 1;
+      const sc = j.scenes[j.scene ?? 0];
+      sc.nodes = [...sc.nodes.map((x) => (x === node ? parent : x)), joint];
+    });
+    const run = await checkedStructure(st, input, 'skinned cow', 'the main job');
+    for (const r of ratios(run.out)) assert.ok(relClose(r, 2, 1e-9), `distance / (error * H / (2 tan(fov/2) p)) = ${r}, expected 2`);
   });
 });
 

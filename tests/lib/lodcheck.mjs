@@ -126,6 +126,54 @@ export function maxColumnScale(m) {
   return s;
 }
 
+/**
+ * How much a 4x4 (column-major) stretches lengths: the largest singular value of its 3x3 part, by Jacobi
+ * rotations on M^T M (independently of lodpipe's C); the longest column when there is no shear.
+ */
+export function maxStretch(m) {
+  const a = [0, 1, 2].map((i) => [0, 1, 2].map((k) => m[i * 4] * m[k * 4] + m[i * 4 + 1] * m[k * 4 + 1] + m[i * 4 + 2] * m[k * 4 + 2]));
+  for (let sweep = 0; sweep < 50; sweep++) {
+    let off = 0;
+    for (const [p, q] of [[0, 1], [0, 2], [1, 2]]) off += a[p][q] * a[p][q];
+    if (!(off > 1e-34 * (a[0][0] + a[1][1] + a[2][2]) ** 2)) break;
+    for (const [p, q] of [[0, 1], [0, 2], [1, 2]]) {
+      if (a[p][q] === 0) continue;
+      // the rotation in the (p, q) plane that zeroes a[p][q], applied as J^T A J
+      const phi = 0.5 * Math.atan2(2 * a[p][q], a[q][q] - a[p][p]);
+      const c = Math.cos(phi);
+      const sn = Math.sin(phi);
+      const next = a.map((row) => row.slice());
+      for (let k = 0; k < 3; k++) {
+        next[k][p] = c * a[k][p] - sn * a[k][q];
+        next[k][q] = sn * a[k][p] + c * a[k][q];
+      }
+      const rows = next.map((row) => row.slice());
+      for (let k = 0; k < 3; k++) {
+        rows[p][k] = c * next[p][k] - sn * next[q][k];
+        rows[q][k] = sn * next[p][k] + c * next[q][k];
+      }
+      for (let i = 0; i < 3; i++) for (let k = 0; k < 3; k++) a[i][k] = rows[i][k];
+    }
+  }
+  return Math.max(maxColumnScale(m), Math.sqrt(Math.max(0, a[0][0], a[1][1], a[2][2])));
+}
+
+/**
+ * How much node n stretches its mesh into the world (README "Output format"): its world matrix's maxStretch, or
+ * for a skinned node (glTF ignores its own transform: the joints place the mesh) the largest over the skin's
+ * joints of maxStretch(joint world * inverse bind matrix).
+ */
+export function meshStretch(raw, world, n) {
+  const skin = raw.json.skins?.[raw.json.nodes[n].skin];
+  if (!skin || !(skin.joints || []).length) return maxStretch(world[n]);
+  const ibm = skin.inverseBindMatrices !== undefined ? rawAccessor(raw, skin.inverseBindMatrices) : null;
+  const identity = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
+  return Math.max(...skin.joints.map((jn, k) => {
+    const bind = ibm && k < ibm.count ? [...Array(16)].map((_, i) => ibm.array[16 * k + i]) : identity;
+    return maxStretch(mat4Mul(world[jn], bind));
+  }));
+}
+
 /** d, R, c of DESIGN.md §8 / the README's output format, recomputed. */
 export function expectedSwitching(error, scale, diagonal, camera) {
   const t = Math.tan(camera.fov_y / 2);
@@ -1020,7 +1068,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
         if (cam[k] !== camera[k]) P('switching', `${tag}: extras.lodpipe.camera.${k} = ${cam[k]}, the run used ${camera[k]}`);
       }
       if (meta.levels.length !== ids.length + 1) P('switching', `${tag}: extras.lodpipe.levels has ${meta.levels.length} entries, expected ${ids.length + 1} (the node + one per LOD)`);
-      const s = maxColumnScale(world[n]) * instanceScale(raw, nodes[n]);
+      const s = meshStretch(raw, world, n) * instanceScale(raw, nodes[n]);
       const l0 = meta.levels[0] || {};
       const want0 = { node: n, mesh: m, error: 0, error_fraction: 0, triangles, distance: 0, screen_coverage: 1 };
       for (const [k, v] of Object.entries(want0)) if (l0[k] !== v) P(k === 'triangles' || k === 'node' || k === 'mesh' ? 'chain' : 'switching', `${tag}: extras.lodpipe.levels[0].${k} = ${l0[k]}, expected ${v}`);
