@@ -121,13 +121,18 @@ static int report(const char *file, const lp_error *err)
     return err->code;
 }
 
+/* The load's warnings: the first 8 and a count of the rest, which `inspect`
+ * lists (all it kept). */
 static void print_warnings(const cli *c, const char *file, const scene *s)
 {
     if (c->quiet) return;
-    uint32_t shown = s->warning_count < 8 ? s->warning_count : 8;
+    const int all = c->command && strcmp(c->command, "inspect") == 0;
+    const uint32_t kept = s->warning_count < s->warning_capacity ? s->warning_count : s->warning_capacity;
+    const uint32_t shown = all || kept < 8 ? kept : 8;
     for (uint32_t i = 0; i < shown; ++i) lp_say("%s: warning: %s", file, s->warnings[i]);
     if (s->warning_count > shown)
-        lp_say("%s: warning: %u more warnings", file, s->warning_count - shown);
+        lp_say(all ? "%s: warning: %u more warnings (not kept)" : "%s: warning: %u more warnings (lodpipe inspect lists them)",
+               file, s->warning_count - shown);
 }
 
 static int load(const cli *c, const char *path, scene *s)
@@ -790,9 +795,12 @@ static int cmd_lod(const cli *c)
                         mesh->name, k + 1, (unsigned long long)mesh->triangle_count, sum.levels[k].triangles,
                         r.diagonal > 0 ? 100.0 * sum.levels[k].error / r.diagonal : 0.0,
                         r.levels[sum.levels[k].ladder_level - 1].stats.seconds);
-        if (!c->quiet)
-            for (uint32_t i = 0; i < sum.warning_count && i < 4; ++i)
-                lp_say("%s: warning: %s", in, sum.warnings[i]);
+        if (!c->quiet) {
+            const uint32_t kept = sizeof sum.warnings / sizeof sum.warnings[0];
+            for (uint32_t i = 0; i < sum.warning_count && i < kept; ++i) lp_say("%s: warning: %s", in, sum.warnings[i]);
+            if (sum.warning_count > kept)
+                lp_say("%s: warning: mesh %u: %u more warnings like these", in, m, sum.warning_count - kept);
+        }
         jsonw_printf(&j, "%s{\"mesh\":%u,\"name\":", first ? "" : ",", m);
         jsonw_string(&j, mesh->name);
         jsonw_printf(&j, ",\"triangles\":%llu,\"diagonal\":", (unsigned long long)mesh->triangle_count);

@@ -14,7 +14,12 @@
 static void warn(scene *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void warn(scene *s, const char *fmt, ...)
 {
-    if (s->warning_count < sizeof s->warnings / sizeof s->warnings[0]) {
+    if (s->warning_count == s->warning_capacity && s->warning_capacity < SCENE_MAX_WARNINGS_KEPT) {
+        const uint32_t capacity = s->warning_capacity ? 2 * s->warning_capacity : 16;
+        char(*grown)[256] = realloc(s->warnings, capacity * sizeof *grown);
+        if (grown) s->warnings = grown, s->warning_capacity = capacity;
+    }
+    if (s->warning_count < s->warning_capacity) {
         va_list ap;
         va_start(ap, fmt);
         vsnprintf(s->warnings[s->warning_count], sizeof s->warnings[0], fmt, ap);
@@ -688,6 +693,7 @@ void scene_free(scene *s)
     free(s->meshes);
     free(s->nodes);
     free(s->channels);
+    free(s->warnings);
     gltf_free(s->doc);
     memset(s, 0, sizeof *s);
 }

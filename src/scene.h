@@ -82,6 +82,9 @@ typedef struct scene_channel {
                              or the mesh's ("weights", "weights/2") */
 } scene_channel;
 
+/* Warnings of a load kept as text (inspect lists them); the rest are counted. */
+#define SCENE_MAX_WARNINGS_KEPT 4096
+
 typedef struct scene {
     gltf_doc *doc;
     int64_t default_scene; /* -1: the file has no scenes */
@@ -89,8 +92,9 @@ typedef struct scene {
     scene_mesh *meshes;
     uint32_t node_count;
     scene_node *nodes;
-    uint32_t warning_count;
-    char warnings[8][256]; /* the first few, for the CLI to print */
+    uint32_t warning_count;    /* every warning of the load */
+    uint32_t warning_capacity; /* warnings[0 .. min(count, capacity)) are kept */
+    char (*warnings)[256];     /* the first SCENE_MAX_WARNINGS_KEPT, for the CLI to print */
     /* the input's animation channels, indexed once (not per chained mesh:
      * scenes of thousands of animated meshes); NULL until lodchain needs them */
     scene_channel *channels;

@@ -796,3 +796,36 @@ test('extensionsRequired: material-only and chain-carried extensions accepted, a
     });
   }
 });
+
+// Warnings an artist can act on (QA): a run prints the first 8 of the input's and says that `inspect` lists
+// the rest, and inspect lists them all; a mesh's chain warnings beyond the first 4 are counted, not dropped.
+test('warnings: the rest counted and pointed to, inspect lists them all', { skip }, async (t) => {
+  const engine = corpusPath('scenes/2CylinderEngine.glb');
+  await t.test('2CylinderEngine: 8 + "N more (lodpipe inspect lists them)"; inspect: all of them', (st) => {
+    const dir = tempDir(st);
+    const run = runLodpipe([engine, '-o', path.join(dir, 'out.glb')]);
+    assert.equal(run.status, 0, describeRun(run));
+    const lines = run.stderr.trim().split('\n').filter((l) => l.includes(': warning: '));
+    const more = /warning: (\d+) more warnings \(lodpipe inspect lists them\)$/.exec(lines[lines.length - 1]);
+    assert.ok(lines.length === 9 && more, describeRun(run));
+    const inspect = runLodpipe(['inspect', engine]);
+    assert.equal(inspect.status, 0, describeRun(inspect));
+    const listed = inspect.stderr.trim().split('\n').filter((l) => l.includes(': warning: '));
+    assert.equal(listed.length, 8 + Number(more[1]), describeRun(inspect));
+    assert.deepEqual(listed.slice(0, 8), lines.slice(0, 8), 'the same first 8');
+  });
+  await t.test('six nodes of one mesh with non-object extras: 4 warnings and "2 more warnings like these"', (st) => {
+    const dir = tempDir(st);
+    const { json, bin } = parseGlb(fs.readFileSync(DUCK));
+    const mesh = json.nodes.find((n) => n.mesh !== undefined).mesh;
+    const added = [...Array(6)].map((_, k) => json.nodes.push({ name: `duck ${k}`, mesh, translation: [k * 300, 0, 0], extras: `tag${k}` }) - 1);
+    json.scenes[json.scene ?? 0].nodes.push(...added);
+    const input = path.join(dir, 'in.glb');
+    writeGlb(input, json, bin);
+    const r = runLodpipe([input, '-o', path.join(dir, 'out.glb')]);
+    assert.equal(r.status, 0, describeRun(r));
+    const lines = r.stderr.trim().split('\n');
+    assert.equal(lines.filter((l) => /extras is not an object; switching metadata not written/.test(l)).length, 4, describeRun(r));
+    assert.match(r.stderr, /warning: mesh \d+: 2 more warnings like these/);
+  });
+});
