@@ -109,14 +109,18 @@ int scene_mesh_stretch(const scene *s, uint32_t node, double *stretch, lp_error 
     char *ibm_index = gltf_get_json(s->doc, pointer);
     float *ibm = NULL;
     uint32_t ibm_count = 0, components = 0;
-    int rc = ibm_index ? accessor_read_floats(s->doc, strtoll(ibm_index, NULL, 10), &ibm, &ibm_count, &components, err)
-                       : LP_OK;
+    /* inverse bind matrices that cannot be read as float MAT4 (invalid, which
+     * the loader keeps as it is) count as identities: the input's own error
+     * does not stop the run */
+    lp_error unread = {0, ""};
+    if (ibm_index && accessor_read_floats(s->doc, strtoll(ibm_index, NULL, 10), &ibm, &ibm_count, &components, &unread))
+        ibm_count = 0;
     free(ibm_index);
-    if (!rc && components != 16) ibm_count = 0; /* not MAT4 (the loader keeps what the validator flags) */
+    if (components != 16) ibm_count = 0;
     double best = 0.0;
     uint32_t k = 0;
     /* joints: a JSON array of node indices the loader checked */
-    for (const char *p = joints; !rc && p && *p; ++k) {
+    for (const char *p = joints; p && *p; ++k) {
         while (*p && (*p < '0' || *p > '9')) ++p;
         if (!*p) break;
         char *end;
@@ -130,7 +134,6 @@ int scene_mesh_stretch(const scene *s, uint32_t node, double *stretch, lp_error 
     }
     free(joints);
     free(ibm);
-    if (rc) return rc;
     if (!isfinite(best) || best > FLT_MAX)
         return lp_fail(err, LP_INVALID, "nodes[%u]: a joint of skins[%lld] stretches the mesh beyond float range", node,
                        (long long)skin);

@@ -139,8 +139,8 @@ double scene_max_scale(const double m[16]);
  * own transform glTF ignores (its joints place the mesh), the largest over
  * the skin's joints of scene_max_scale(joint world * inverse bind matrix), in
  * the rest pose (the node transforms as read, as for animated nodes).
- * Returns LP_OK, or an error (an unreadable inverseBindMatrices accessor, a
- * joint beyond float range). */
+ * Inverse bind matrices that are not float MAT4 count as identities. Returns
+ * LP_OK, or LP_INVALID when a joint stretches beyond float range. */
 int scene_mesh_stretch(const scene *s, uint32_t node, double *stretch, lp_error *err);
 
 /* Node n's own transform (its matrix, or its TRS), column-major, as the

@@ -608,6 +608,18 @@ test('switching distances follow the stretch: a sheared node, and a skinned node
     });
     const run = await checkedStructure(st, input, 'skinned cow', 'the main job');
     for (const r of ratios(run.out)) assert.ok(relClose(r, 2, 1e-9), `distance / (error * H / (2 tan(fov/2) p)) = ${r}, expected 2`);
+    // inverse bind matrices that are not float (invalid glTF, kept as it came) count as identities: the
+    // joint's own stretch, 4, and the run goes on
+    const raw = JSON.parse(fs.readFileSync(input, 'utf8'));
+    const bytes = new Uint8Array(16).fill(0);
+    const b = raw.buffers.push({ byteLength: 16, uri: `data:application/octet-stream;base64,${Buffer.from(bytes).toString('base64')}` }) - 1;
+    const v = raw.bufferViews.push({ buffer: b, byteLength: 16 }) - 1;
+    raw.skins[0].inverseBindMatrices = raw.accessors.push({ bufferView: v, componentType: 5121, count: 1, type: 'MAT4' }) - 1;
+    const bad = path.join(path.dirname(input), 'cow_skinned_byte_ibm.gltf');
+    fs.writeFileSync(bad, JSON.stringify(raw));
+    const again = mainJob(bad, '.glb', [], { tag: 'byteibm' });
+    assert.deepEqual(runFatal(again), [], describeRun(again.r));
+    for (const r of ratios(again.out)) assert.ok(relClose(r, 4, 1e-9), `byte inverse bind matrices: ratio ${r}, expected 4`);
   });
 });
 
