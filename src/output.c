@@ -107,7 +107,7 @@ int output_check_folder(const char *main_path, lp_error *err)
  * signal. The handler reads temps[0 .. count); they change only with the stop
  * signals blocked (a temp is created and listed in one such step, so the
  * handler sees whole names of files this process made). One set at a time
- * per process, and no other thread while it exists (output.h). */
+ * per process, staged and committed while no other thread runs (output.h). */
 struct output_set {
     char (*temps)[4200];   /* "" once renamed */
     char (*targets)[4200];
@@ -128,16 +128,6 @@ static void remove_temps_and_die(int sig)
     raise(sig);
 }
 
-static void block_stop_signals(sigset_t *old)
-{
-    sigset_t stops;
-    sigemptyset(&stops);
-    sigaddset(&stops, SIGINT);
-    sigaddset(&stops, SIGTERM);
-    sigaddset(&stops, SIGHUP);
-    pthread_sigmask(SIG_BLOCK, &stops, old);
-}
-
 int output_set_begin(output_set **out, lp_error *err)
 {
     assert(!g_set); /* one set at a time: the handler knows one */
@@ -156,7 +146,7 @@ int output_stage(output_set *set, const char *target, const uint8_t *bytes, size
     if (snprintf(temp, sizeof temp, "%s.lodpipe-XXXXXX", target) >= (int)sizeof temp)
         return lp_fail(err, LP_IO, "path too long: %s", target);
     sigset_t old;
-    block_stop_signals(&old);
+    stopsig_block(&old);
     int rc = LP_OK, fd = -1;
     if (set->count == set->capacity) {
         const size_t capacity = set->capacity ? 2 * set->capacity : 8;
@@ -184,7 +174,7 @@ int output_commit(output_set *set, lp_error *err)
     /* held from the first rename on: a stop then takes effect after the
      * last one (output_set_end), never between two */
     if (!set->held) {
-        block_stop_signals(&set->held_before);
+        stopsig_block(&set->held_before);
         set->held = 1;
     }
     for (size_t i = 0; i < set->count; ++i) {
@@ -200,7 +190,7 @@ void output_set_end(output_set *set)
 {
     if (!set) return;
     sigset_t old;
-    block_stop_signals(&old); /* the handler must not read the set while it goes */
+    stopsig_block(&old); /* the handler must not read the set while it goes */
     for (size_t i = 0; i < set->count; ++i)
         if (set->temps[i][0]) unlink(set->temps[i]);
     stopsig_restore(&set->before);

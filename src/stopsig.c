@@ -1,6 +1,7 @@
 /* stopsig.c - see stopsig.h. */
 #include "stopsig.h"
 
+#include <pthread.h>
 #include <string.h>
 
 static const int kStopSignals[STOPSIG_COUNT] = {SIGINT, SIGTERM, SIGHUP};
@@ -19,6 +20,14 @@ void stopsig_catch(void (*handler)(int), stopsig_saved *saved)
         sigemptyset(&sa.sa_mask);
         sigaction(kStopSignals[k], &sa, NULL);
     }
+}
+
+void stopsig_block(sigset_t *old)
+{
+    sigset_t stops;
+    sigemptyset(&stops);
+    for (int k = 0; k < STOPSIG_COUNT; ++k) sigaddset(&stops, kStopSignals[k]);
+    pthread_sigmask(SIG_BLOCK, &stops, old);
 }
 
 void stopsig_restore(const stopsig_saved *saved)

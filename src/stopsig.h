@@ -18,4 +18,8 @@ typedef struct stopsig_saved {
 void stopsig_catch(void (*handler)(int), stopsig_saved *saved);
 void stopsig_restore(const stopsig_saved *saved);
 
+/* Blocks all of them in the calling thread's mask (pthread_sigmask), the
+ * mask before in *old: a stop then waits until the mask is put back. */
+void stopsig_block(sigset_t *old);
+
 #endif
