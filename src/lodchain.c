@@ -105,6 +105,19 @@ static int set_json(gltf_doc *doc, lp_error *err, const char *value, const char 
     return LP_OK;
 }
 
+/* Copies the members `keys` (NULL-terminated; "a/b" reaches into an object)
+ * of object `from` of `array` to object `to` of the same array, those it has:
+ * what a new object takes over from the one it stands for. */
+static void copy_members(gltf_doc *doc, const char *array, long long from, long long to, const char *const *keys)
+{
+    char source[160], target[160];
+    for (; *keys; ++keys) {
+        snprintf(source, sizeof source, "/%s/%lld/%s", array, from, *keys);
+        snprintf(target, sizeof target, "/%s/%lld/%s", array, to, *keys);
+        gltf_copy_json(doc, source, target); /* absent: nothing to copy */
+    }
+}
+
 /* Rewrites accessor a's data in the new vertex order, in place: it keeps its
  * number and JSON and points at a new bufferView (sparse data folded in),
  * which takes the old view's name and extras (the old view, unused now, is
@@ -131,14 +144,11 @@ static int reorder_accessor(gltf_doc *doc, int64_t a, const uint32_t *new_of_old
     free(raw);
     free(out);
     if (view < 0) return lp_fail(err, LP_INVALID, "out of memory");
-    char value[32], from[96], to[96];
-    snprintf(from, sizeof from, "/accessors/%lld/bufferView", (long long)a);
-    char *old_view = gltf_get_json(doc, from);
-    for (const char *const *key = (const char *const[]){"name", "extras", NULL}; old_view && *key; ++key) {
-        snprintf(from, sizeof from, "/bufferViews/%s/%s", old_view, *key);
-        snprintf(to, sizeof to, "/bufferViews/%lld/%s", (long long)view, *key);
-        gltf_copy_json(doc, from, to); /* absent: nothing to keep */
-    }
+    char value[32], pointer[64];
+    snprintf(pointer, sizeof pointer, "/accessors/%lld/bufferView", (long long)a);
+    char *old_view = gltf_get_json(doc, pointer);
+    if (old_view)
+        copy_members(doc, "bufferViews", strtoll(old_view, NULL, 10), view, (const char *const[]){"name", "extras", NULL});
     free(old_view);
     snprintf(value, sizeof value, "%lld", (long long)view);
     rc = set_json(doc, err, value, "/accessors/%lld/bufferView", (long long)a);
@@ -386,14 +396,10 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
     int64_t lod = j.failed ? -1 : gltf_append_json(s->doc, "meshes", j.text);
     jsonw_free(&j);
     if (lod < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
-    char from[96], to[96];
     /* the mesh's own properties: default morph weights, and extras and
      * extensions (extras.targetNames names the morph targets for clients) */
-    for (const char *const *key = (const char *const[]){"weights", "extras", "extensions", NULL}; *key; ++key) {
-        snprintf(from, sizeof from, "/meshes/%u/%s", m, *key);
-        snprintf(to, sizeof to, "/meshes/%lld/%s", (long long)lod, *key);
-        gltf_copy_json(s->doc, from, to);
-    }
+    copy_members(s->doc, "meshes", m, lod, (const char *const[]){"weights", "extras", "extensions", NULL});
+    char from[96], to[96];
     uint32_t written = 0;
     for (uint32_t p = 0; p < mesh->primitive_count; ++p) {
         const scene_primitive *pr = &mesh->primitives[p];
@@ -439,18 +445,28 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
 
 /* ---- nodes --------------------------------------------------------------------- */
 
+/* The JSON pointer array index at p (decimal digits, no leading zero), with
+ * *after set past it; -1 when there is none. */
+static long long pointer_index(const char *p, const char **after)
+{
+    const char *digits = p;
+    long long n = 0;
+    while (*p >= '0' && *p <= '9' && n < (1LL << 40)) n = n * 10 + (*p++ - '0');
+    if (p == digits || (*digits == '0' && p - digits > 1)) return -1;
+    *after = p;
+    return n;
+}
+
 /* A KHR_animation_pointer pointer "/<array>/N/rest": N, and *rest after its
- * slash; -1 when the pointer is not into that array (an index is decimal
- * digits without a leading zero). */
+ * slash; -1 when the pointer is not into that array. */
 static long long pointer_into(const char *pointer, const char *array, const char **rest)
 {
     const size_t len = strlen(array);
     if (!pointer || pointer[0] != '/' || strncmp(pointer + 1, array, len) != 0 || pointer[len + 1] != '/') return -1;
-    const char *p = pointer + len + 2, *digits = p;
-    long long n = 0;
-    while (*p >= '0' && *p <= '9' && n < (1LL << 40)) n = n * 10 + (*p++ - '0');
-    if (p == digits || *p != '/' || (*digits == '0' && p - digits > 1)) return -1;
-    *rest = p + 1;
+    const char *after;
+    const long long n = pointer_index(pointer + len + 2, &after);
+    if (n < 0 || *after != '/') return -1;
+    *rest = after + 1;
     return n;
 }
 
@@ -458,12 +474,9 @@ static long long pointer_into(const char *pointer, const char *array, const char
  * /nodes/{}/weights/{} and /meshes/{}/weights/{}). */
 static int is_weights_property(const char *property)
 {
-    if (strncmp(property, "weights", 7) != 0) return 0;
-    if (property[7] == 0) return 1;
-    const char *digits = property + 8, *p = digits;
-    if (property[7] != '/' || (*digits == '0' && digits[1])) return 0;
-    while (*p >= '0' && *p <= '9') ++p;
-    return p > digits && *p == 0;
+    const char *after;
+    return strncmp(property, "weights", 7) == 0 &&
+           (property[7] == 0 || (property[7] == '/' && pointer_index(property + 8, &after) >= 0 && *after == 0));
 }
 
 /* Channel c of animation a: the node it animates (-1: none) and the
@@ -612,15 +625,10 @@ static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64
     int64_t id = j.failed ? -1 : gltf_append_json(s->doc, "nodes", j.text);
     jsonw_free(&j);
     if (id < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
-    static const char *const kCopied[] = {"matrix",  "translation", "rotation",
-                                          "scale",   "skin",        "weights",
-                                          "extensions/EXT_mesh_gpu_instancing", "extensions/KHR_node_visibility"};
-    for (size_t k = 0; k < sizeof kCopied / sizeof kCopied[0]; ++k) {
-        char from[96], to[96];
-        snprintf(from, sizeof from, "/nodes/%lld/%s", (long long)from_node, kCopied[k]);
-        snprintf(to, sizeof to, "/nodes/%lld/%s", (long long)id, kCopied[k]);
-        gltf_copy_json(s->doc, from, to);
-    }
+    static const char *const kCopied[] = {"matrix", "translation", "rotation", "scale", "skin", "weights",
+                                          "extensions/EXT_mesh_gpu_instancing", "extensions/KHR_node_visibility",
+                                          NULL};
+    copy_members(s->doc, "nodes", from_node, id, kCopied);
     return id;
 }
 
