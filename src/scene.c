@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "accessor.h"
+#include "jsonr.h"
 #include "radix.h"
 
 static void warn(scene *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -118,26 +119,24 @@ int scene_mesh_stretch(const scene *s, uint32_t node, double *stretch, lp_error 
     free(ibm_index);
     if (components != 16) ibm_count = 0;
     double best = 0.0;
-    uint32_t k = 0;
-    /* joints: a JSON array of node indices the loader checked */
-    for (const char *p = joints; p && *p; ++k) {
-        while (*p && (*p < '0' || *p > '9')) ++p;
-        if (!*p) break;
-        char *end;
-        const unsigned long long j = strtoull(p, &end, 10);
-        p = end;
-        if (j >= s->node_count) continue;
+    /* joints: a JSON array of node indices (the loader checked them) */
+    jsonr r = {0};
+    const uint32_t joint_count = joints && jsonr_parse(&r, joints, strlen(joints)) == 0 ? jsonr_size(&r, 0) : 0;
+    for (uint32_t k = 0; k < joint_count; ++k) {
+        const double j = jsonr_number(&r, jsonr_element(&r, 0, k), -1.0);
+        if (!(j >= 0 && j < s->node_count)) continue;
         double bind[16], m[16];
         for (int i = 0; i < 16; ++i) bind[i] = k < ibm_count ? (double)ibm[16 * (size_t)k + i] : (i % 5 == 0);
-        mat_mul(s->nodes[j].world, bind, m);
+        mat_mul(s->nodes[(uint32_t)j].world, bind, m);
         best = fmax(best, scene_max_scale(m));
     }
+    jsonr_free(&r);
     free(joints);
     free(ibm);
     if (!isfinite(best) || best > FLT_MAX)
         return lp_fail(err, LP_INVALID, "nodes[%u]: a joint of skins[%lld] stretches the mesh beyond float range", node,
                        (long long)skin);
-    if (k) *stretch = best;
+    if (joint_count) *stretch = best;
     return LP_OK;
 }
 
