@@ -414,6 +414,18 @@ for (const rel of ['scans/bunny.glb', 'animated/CesiumMan.glb', 'compressed/Dens
  * message), then the chain checker on it in every aspect but soundness: the variants these tests make are
  * about the file's structure, and the CGAL proof is left to the corpus tests. Returns the run.
  */
+/** The LOD node ids of the first node with an MSFT_lod chain in output JSON j; asserts there is one. */
+function firstChainIds(j) {
+  const ids = j.nodes.find((n) => n.extensions?.MSFT_lod)?.extensions.MSFT_lod.ids || [];
+  assert.ok(ids.length > 0, 'a chain');
+  return ids;
+}
+
+/** The KHR_animation_pointer pointers of animation 0's channels in output JSON j, in channel order. */
+function channelPointers(j) {
+  return j.animations[0].channels.map((c) => c.target.extensions.KHR_animation_pointer.pointer);
+}
+
 async function checkedStructure(t, input, label, what, options = {}) {
   const run = mainJob(input, '.glb', [], options);
   assert.deepEqual(runFatal(run), [], `${what} failed\n${describeRun(run.r)}`);
@@ -518,11 +530,10 @@ test('KHR_node_visibility and KHR_animation_pointer: LOD nodes hidden and animat
   const run = await checkedStructure(t, input, 'cow with pointer channels', 'the main job');
   await t.test('the file: 2 channels + 2 per LOD node, each pointing at its LOD node; LOD nodes carry the visibility', () => {
     const j = readRaw(run.out).json;
-    const ids = j.nodes.find((n) => n.extensions?.MSFT_lod)?.extensions.MSFT_lod.ids || [];
-    assert.ok(ids.length > 0, 'a chain');
+    const ids = firstChainIds(j);
     assert.equal(j.animations[0].channels.length, 2 + 2 * ids.length);
     for (const id of ids) {
-      const pointers = j.animations[0].channels.map((c) => c.target.extensions.KHR_animation_pointer.pointer).filter((p) => p.startsWith(`/nodes/${id}/`));
+      const pointers = channelPointers(j).filter((p) => p.startsWith(`/nodes/${id}/`));
       assert.deepEqual(pointers.sort(), [`/nodes/${id}/extensions/KHR_node_visibility/visible`, `/nodes/${id}/translation`]);
       assert.deepEqual(j.nodes[id].extensions?.KHR_node_visibility, { visible: true });
     }
@@ -551,9 +562,8 @@ test('mesh extras, extensions and "/meshes/M/weights" pointer channels follow to
   const run = await checkedStructure(t, input, 'cow with a morph animated by pointer', 'the main job');
   await t.test('each LOD mesh: the same extras, extension and weights; one pointer channel each', () => {
     const j = readRaw(run.out).json;
-    const ids = j.nodes.find((n) => n.extensions?.MSFT_lod)?.extensions.MSFT_lod.ids || [];
-    assert.ok(ids.length > 0, 'a chain');
-    const pointers = j.animations[0].channels.map((c) => c.target.extensions.KHR_animation_pointer.pointer);
+    const ids = firstChainIds(j);
+    const pointers = channelPointers(j);
     assert.deepEqual(pointers, ['/meshes/0/weights', ...ids.map((id) => `/meshes/${j.nodes[id].mesh}/weights`)]);
     for (const id of ids) {
       const m = j.meshes[j.nodes[id].mesh];
@@ -673,7 +683,7 @@ test('one morph weight by pointer ("weights/K") follows to LOD nodes, LOD meshes
     assert.ok(carrier > 0 && j.nodes[root].children.includes(carrier), 'the node hands its mesh to a carrier');
     const ids = (n) => j.nodes[n].extensions?.MSFT_lod?.ids || [];
     assert.ok(ids(carrier).length > 0 && ids(plain).length === ids(carrier).length, 'both carry the chain');
-    const pointers = j.animations[0].channels.map((c) => c.target.extensions.KHR_animation_pointer.pointer);
+    const pointers = channelPointers(j);
     const lodMeshes = [...new Set(ids(plain).map((id) => j.nodes[id].mesh))];
     assert.deepEqual(pointers.sort(), [`/nodes/${carrier}/weights/1`, `/nodes/${plain}/weights/0`, '/meshes/0/weights/1',
       ...lodMeshes.map((m) => `/meshes/${m}/weights/1`), ...ids(carrier).map((id) => `/nodes/${id}/weights/1`),
@@ -753,8 +763,7 @@ test('animated node: every LOD node follows the node\'s rotation and translation
   const run = await checkedStructure(t, input, 'animated cow', 'the main job');
   await t.test('the file: 2 channels + 2 per LOD node', () => {
     const j = readRaw(run.out).json;
-    const ids = j.nodes.find((n) => n.extensions?.MSFT_lod)?.extensions.MSFT_lod.ids || [];
-    assert.ok(ids.length > 0, 'a chain');
+    const ids = firstChainIds(j);
     assert.equal(j.animations[0].channels.length, 2 + 2 * ids.length);
     for (const id of ids) assert.deepEqual(j.animations[0].channels.filter((c) => c.target.node === id).map((c) => c.target.path).sort(), ['rotation', 'translation']);
   });
