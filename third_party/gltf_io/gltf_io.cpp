@@ -64,8 +64,9 @@ const char *const kSupportedRequired[] = {
     "KHR_materials_clearcoat", "KHR_materials_transmission", "KHR_materials_volume",
     "KHR_materials_ior", "KHR_materials_specular", "KHR_materials_sheen",
     "KHR_materials_iridescence", "KHR_materials_anisotropy", "KHR_materials_dispersion",
-    "KHR_materials_diffuse_transmission", "KHR_materials_variants", "KHR_animation_pointer", "KHR_node_visibility", "KHR_lights_punctual", "EXT_mesh_gpu_instancing",
-    "KHR_xmp_json_ld", "KHR_texture_procedurals"};
+    "KHR_materials_diffuse_transmission", "KHR_materials_variants", "KHR_lights_punctual",
+    "EXT_mesh_gpu_instancing", "KHR_xmp_json_ld", "KHR_texture_procedurals", "KHR_animation_pointer",
+    "KHR_node_visibility"};
 
 struct Failure {
     int code;
