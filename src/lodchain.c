@@ -376,22 +376,30 @@ static int64_t level_positions(gltf_doc *doc, const scene_primitive *pr, uint32_
     return a;
 }
 
+/* "<base>_LOD<number>", the name of a level's mesh or node (malloc'd; NULL
+ * when out of memory). */
+static char *lod_name(const char *base, uint32_t number)
+{
+    char suffix[32];
+    int suffix_len = snprintf(suffix, sizeof suffix, "_LOD%u", number);
+    size_t base_len = strlen(base);
+    char *name = malloc(base_len + (size_t)suffix_len + 1);
+    if (!name) return NULL;
+    memcpy(name, base, base_len);
+    memcpy(name + base_len, suffix, (size_t)suffix_len + 1);
+    return name;
+}
+
 static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, const simplify_level *level,
                                 uint32_t number, uint32_t *const *new_of_old, lp_error *err)
 {
     const scene_mesh *mesh = &s->meshes[m];
+    char *name = lod_name(mesh->name, number);
+    if (!name) return lp_fail(err, LP_INVALID, "out of memory"), -1;
     jsonw j = {0};
-    char suffix[32];
-    snprintf(suffix, sizeof suffix, "_LOD%u", number);
     jsonw_raw(&j, "{\"name\":");
-    size_t name_len = strlen(mesh->name);
-    char *name = malloc(name_len + sizeof suffix);
-    if (name) {
-        memcpy(name, mesh->name, name_len);
-        memcpy(name + name_len, suffix, strlen(suffix) + 1);
-        jsonw_string(&j, name);
-        free(name);
-    }
+    jsonw_string(&j, name);
+    free(name);
     jsonw_raw(&j, ",\"primitives\":[]}");
     int64_t lod = j.failed ? -1 : gltf_append_json(s->doc, "meshes", j.text);
     jsonw_free(&j);
@@ -609,15 +617,9 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
 static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64_t lod_mesh, uint32_t number,
                               lp_error *err)
 {
-    jsonw j = {0};
-    char suffix[32];
-    snprintf(suffix, sizeof suffix, "_LOD%u", number);
-    const char *base = s->nodes[named].name;
-    size_t len = strlen(base);
-    char *name = malloc(len + sizeof suffix);
+    char *name = lod_name(s->nodes[named].name, number);
     if (!name) return lp_fail(err, LP_INVALID, "out of memory"), -1;
-    memcpy(name, base, len);
-    memcpy(name + len, suffix, strlen(suffix) + 1);
+    jsonw j = {0};
     jsonw_raw(&j, "{\"name\":");
     jsonw_string(&j, name);
     free(name);
