@@ -226,9 +226,12 @@ static int output_usable(const cli *c, const char *in, const char *out)
     lp_error err = {0, ""};
     if (output_check_folder(out, &err)) return report(out, &err); /* now, not after the work */
     if (c->depfile) {
-        if (output_same_path(c->depfile, out) || output_same_path(c->depfile, in)) {
-            lp_say("%s: --depfile names the %s", c->depfile,
-                    output_same_path(c->depfile, out) ? "output" : "input");
+        const char *named = output_same_path(c->depfile, out)  ? "output"
+                            : output_same_path(c->depfile, in) ? "input"
+                            : c->config_path && output_same_path(c->depfile, c->config_path) ? "--config file"
+                                                                                             : NULL;
+        if (named) {
+            lp_say("%s: --depfile names the %s", c->depfile, named);
             return LP_USAGE;
         }
         if (output_check_folder(c->depfile, &err)) return report(c->depfile, &err);
@@ -281,7 +284,7 @@ static int write_document(const cli *c, const char *in, const gltf_doc *doc, con
     char msg[512];
     lp_error err = {0, ""};
     const size_t inputs = in ? gltf_external_file_count(doc) + 1 : 0;
-    output_guard *guards = calloc(inputs + 2, sizeof *guards);
+    output_guard *guards = calloc(inputs + 3, sizeof *guards);
     size_t guard_count = 0;
     if (!guards) return LP_IO;
     if (in && !(c->force && output_same_file(in, out))) {
@@ -290,6 +293,7 @@ static int write_document(const cli *c, const char *in, const gltf_doc *doc, con
             guards[guard_count++] = (output_guard){gltf_external_file(doc, i), "a file the input reads"};
     }
     if (in && c->depfile) guards[guard_count++] = (output_guard){c->depfile, "the --depfile"};
+    if (in && c->config_path) guards[guard_count++] = (output_guard){c->config_path, "the --config file"};
     const output_file also = {c ? c->depfile : NULL, (const uint8_t *)depfile, depfile ? strlen(depfile) : 0};
     int rc = gltf_serialize(doc, out, &files, &count, msg, sizeof msg);
     if (rc) {

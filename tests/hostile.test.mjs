@@ -386,10 +386,13 @@ test('safe writes: refusal, missing and read-only folders, full disk', { skip },
     assert.ok(fs.readFileSync(glbAsBin).equals(fs.readFileSync(DUCK)), 'the input is unchanged');
   });
 
-  await t.test('--depfile naming OUT, IN or a file IN reads, or in a missing folder -> refused before the work', (st) => {
+  await t.test('--depfile naming OUT, IN, the config or a file IN reads, or in a missing folder -> refused before the work', (st) => {
     const dir = tempDir(st);
-    const names = ['CesiumMilkTruck.gltf', 'CesiumMilkTruck0.bin', 'CesiumMilkTruck.png'];
-    for (const f of names) fs.copyFileSync(corpusPath(`scenes/CesiumMilkTruck/${f}`), path.join(dir, f));
+    const names = ['CesiumMilkTruck.gltf', 'CesiumMilkTruck0.bin', 'CesiumMilkTruck.png', 'levels.toml', 'config.bin'];
+    for (const f of names.slice(0, 3)) fs.copyFileSync(corpusPath(`scenes/CesiumMilkTruck/${f}`), path.join(dir, f));
+    // the config is an input too: neither the depfile nor a .gltf output's .bin may replace it
+    fs.writeFileSync(path.join(dir, 'levels.toml'), '[lod]\nlevels = [2, 4]\n');
+    fs.writeFileSync(path.join(dir, 'config.bin'), '[lod]\nlevels = [2, 4]\n');
     const input = path.join(dir, 'CesiumMilkTruck.gltf');
     const out = path.join(dir, 'out.glb');
     const cases = [
@@ -398,6 +401,9 @@ test('safe writes: refusal, missing and read-only folders, full disk', { skip },
       [[input, '-o', out, '--depfile', path.join(dir, 'CesiumMilkTruck.png')], 1, 'CesiumMilkTruck.png'],
       [[input, '-o', path.join(dir, 'out.gltf'), '--depfile', path.join(dir, 'out.bin')], 1, 'out.bin'],
       [[input, '-o', out, '--depfile', path.join(dir, 'missing', 'x.d')], 4, 'missing'],
+      [[input, '-o', out, '--config', path.join(dir, 'levels.toml'), '--depfile', path.join(dir, 'levels.toml')], 1,
+        'config'],
+      [[input, '-o', path.join(dir, 'config.gltf'), '--config', path.join(dir, 'config.bin')], 1, 'config.bin'],
     ];
     const before = names.map((f) => fs.readFileSync(path.join(dir, f)));
     for (const [args, code, name] of cases) {
