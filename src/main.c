@@ -17,6 +17,7 @@
 #include "config.h"
 #include "depfile.h"
 #include "dracoout.h"
+#include "jsonr.h"
 #include "jsonw.h"
 #include "lodchain.h"
 #include "measure.h"
@@ -179,7 +180,8 @@ static int cmd_inspect(const cli *c)
             if (pr->target_count) printf(", %u morph targets", pr->target_count);
             printf("\n");
         }
-        printf("  instanced by %u node%s:", mesh->instance_count, mesh->instance_count == 1 ? "" : "s");
+        printf("  instanced by %u node%s%s", mesh->instance_count, mesh->instance_count == 1 ? "" : "s",
+               mesh->instance_count ? ":" : "");
         for (uint32_t i = 0; i < mesh->instance_count; ++i) {
             const scene_node *n = &s.nodes[mesh->instances[i]];
             double stretch;
@@ -860,15 +862,97 @@ static int cmd_lod(const cli *c)
     return rc;
 }
 
-static int recorded_number(const gltf_doc *doc, const char *pointer, double *out)
+/* One entry of a node's extras.lodpipe.levels: the LOD node it describes and
+ * its recorded error. */
+typedef struct chain_record {
+    double node, error;
+} chain_record;
+
+typedef enum chain_records_state { RECORDS_NONE, RECORDS_READ, RECORDS_MALFORMED } chain_records_state;
+
+/* Reads node n's extras.lodpipe.levels into records (malloc'd). RECORDS_NONE:
+ * no extras.lodpipe (or extras not an object), nothing recorded;
+ * RECORDS_MALFORMED, with the reason in `why`: extras.lodpipe is there but is
+ * not an object whose `levels` is an array of objects, each with a
+ * non-negative integer `node` (no node twice) and a finite non-negative
+ * `error`. A gate must not pass a certificate it cannot read. */
+static chain_records_state read_chain_records(const gltf_doc *doc, uint32_t n, chain_record **records, uint32_t *count,
+                                              char *why, size_t why_size)
 {
+    *records = NULL;
+    *count = 0;
+    char pointer[64];
+    snprintf(pointer, sizeof pointer, "/nodes/%u/extras/lodpipe", n);
     char *text = gltf_get_json(doc, pointer);
-    if (!text) return -1;
-    char *end;
-    *out = strtod(text, &end);
-    int ok = end != text && *end == 0;
+    if (!text) return RECORDS_NONE;
+    jsonr r;
+    chain_records_state state = RECORDS_MALFORMED;
+    snprintf(why, why_size, "extras.lodpipe.levels is not an array");
+    if (jsonr_parse(&r, text, strlen(text)) != 0) {
+        snprintf(why, why_size, "extras.lodpipe cannot be read");
+        free(text);
+        return RECORDS_MALFORMED;
+    }
+    const uint32_t levels = r.tokens[0].type == JSONR_OBJECT ? jsonr_member(&r, 0, "levels") : JSONR_NONE;
+    if (levels != JSONR_NONE && r.tokens[levels].type == JSONR_ARRAY) {
+        const uint32_t size = jsonr_size(&r, levels);
+        chain_record *out = calloc(size ? size : 1, sizeof *out);
+        uint32_t k = 0;
+        for (; out && k < size; ++k) {
+            const uint32_t entry = jsonr_element(&r, levels, k);
+            const uint32_t node = jsonr_member(&r, entry, "node"), error = jsonr_member(&r, entry, "error");
+            out[k].node = jsonr_number(&r, node, -1);
+            out[k].error = jsonr_number(&r, error, -1);
+            if (!(out[k].node >= 0 && out[k].node <= 4294967295.0 && out[k].node == floor(out[k].node))) {
+                snprintf(why, why_size, "extras.lodpipe.levels[%u].node is not a node index", k);
+                break;
+            }
+            if (!(out[k].error >= 0 && isfinite(out[k].error))) {
+                snprintf(why, why_size, "extras.lodpipe.levels[%u].error is not a finite non-negative number", k);
+                break;
+            }
+            uint32_t same = 0;
+            while (same < k && out[same].node != out[k].node) same++;
+            if (same < k) {
+                snprintf(why, why_size, "extras.lodpipe.levels[%u] and [%u] describe the same node", same, k);
+                break;
+            }
+        }
+        if (!out) snprintf(why, why_size, "out of memory");
+        if (out && k == size) {
+            state = RECORDS_READ;
+            *records = out;
+            *count = size;
+        } else {
+            free(out);
+        }
+    }
+    jsonr_free(&r);
     free(text);
-    return ok ? 0 : -1;
+    return state;
+}
+
+/* The recorded error of LOD node `node`, looked up by node (not by position:
+ * a chain edited by hand may list its levels in another order), or -1. */
+static double recorded_error(const chain_record *records, uint32_t count, int64_t node)
+{
+    for (uint32_t k = 0; k < count; ++k)
+        if (records[k].node == (double)node) return records[k].error;
+    return -1;
+}
+
+/* Is any primitive of mesh m Draco-compressed in the file? (LOD0's recorded
+ * error is its quantization then; a plain LOD0 should record 0.) */
+static int mesh_has_draco(const scene *s, uint32_t m)
+{
+    for (uint32_t p = 0; p < s->meshes[m].primitive_count; ++p) {
+        char pointer[96];
+        snprintf(pointer, sizeof pointer, "/meshes/%u/primitives/%u/extensions/KHR_draco_mesh_compression", m, p);
+        char *text = gltf_get_json(s->doc, pointer);
+        free(text);
+        if (text) return 1;
+    }
+    return 0;
 }
 
 /* lodpipe check FILE: measures every LOD against its LOD0 by dense sampling
@@ -882,13 +966,15 @@ static int cmd_check(const cli *c)
     if (rc) return rc;
     int failed = 0, chains = 0;
     lp_error err = {0, ""};
-    printf("%-6s %-6s %-6s %-10s %-14s %-14s %s\n", "node", "level", "mesh", "triangles", "recorded", "measured", "ok");
+    printf("%-6s %-6s %-6s %-10s %-14s %-14s %-14s %s\n", "node", "level", "mesh", "triangles", "recorded", "allowed",
+           "measured", "ok");
     for (uint32_t n = 0; n < s.node_count && !rc; ++n) {
         const scene_node *node = &s.nodes[n];
         if (!node->lod_count) continue;
         chains++;
         if (node->mesh < 0) { /* a chain without its finest level */
-            printf("%-6u %-6u %-6s %-10s %-14s %-14s %s\n", n, 0, "-", "-", "-", "-", "NO: the node has MSFT_lod but no mesh");
+            printf("%-6u %-6u %-6s %-10s %-14s %-14s %-14s %s\n", n, 0, "-", "-", "-", "-", "-",
+                   "NO: the node has MSFT_lod but no mesh");
             failed = 1;
             continue;
         }
@@ -902,13 +988,22 @@ static int cmd_check(const cli *c)
             bvh_build(&a_tree, a.positions, a.vertex_count, a.triangles, a.triangle_count) != BVH_OK)
             rc = LP_INVALID;
         const double spacing = base->diagonal / 400.0;
+        chain_record *records = NULL;
+        uint32_t record_count = 0;
+        char malformed[160];
+        const chain_records_state state =
+            read_chain_records(s.doc, n, &records, &record_count, malformed, sizeof malformed);
         /* LOD0's own recorded error (Draco: its quantization, else 0): the
          * errors are against the original surface, so a level and the file's
-         * LOD0 are within the sum of both (triangle inequality) */
-        double lod0_error = 0;
-        char lod0_pointer[128];
-        snprintf(lod0_pointer, sizeof lod0_pointer, "/nodes/%u/extras/lodpipe/levels/0/error", n);
-        if (recorded_number(s.doc, lod0_pointer, &lod0_error) != 0 || !(lod0_error >= 0)) lod0_error = 0;
+         * LOD0 are within the sum of both (triangle inequality). The original
+         * is not in the file, so this one cannot be measured: shown in the
+         * `allowed` column, and a warning when a plain LOD0 claims one. */
+        double lod0_error = recorded_error(records, record_count, n);
+        if (lod0_error < 0) lod0_error = 0;
+        if (lod0_error > 0 && !c->quiet && !mesh_has_draco(&s, (uint32_t)node->mesh))
+            lp_say("%s: warning: nodes[%u]: LOD0 records an error of %.8g but is not Draco-compressed; it is added to "
+                   "every level's allowance",
+                   in, n, lod0_error);
         /* MSFT_lod lists levels from finest to coarsest, each shown in the
          * node's place: fewer triangles and no smaller recorded error than
          * the level before, and the node's own transform */
@@ -917,12 +1012,11 @@ static int cmd_check(const cli *c)
         scene_local_transform(&s, n, local);
         for (uint32_t k = 0; k < node->lod_count && !rc; ++k) {
             const scene_node *lod = &s.nodes[node->lod_ids[k]];
-            char pointer[128];
-            double recorded;
-            snprintf(pointer, sizeof pointer, "/nodes/%u/extras/lodpipe/levels/%u/error", n, k + 1);
-            int have = recorded_number(s.doc, pointer, &recorded) == 0;
+            const double recorded = recorded_error(records, record_count, node->lod_ids[k]);
+            const int have = recorded >= 0;
             if (lod->mesh < 0) {
-                printf("%-6u %-6u %-6s %-10s %-14s %-14s %s\n", n, k + 1, "-", "-", "-", "-", "NO: the level has no mesh");
+                printf("%-6u %-6u %-6s %-10s %-14s %-14s %-14s %s\n", n, k + 1, "-", "-", "-", "-", "-",
+                       "NO: the level has no mesh");
                 failed = 1;
                 continue;
             }
@@ -942,22 +1036,27 @@ static int cmd_check(const cli *c)
                                 : have && recorded < previous_error   ? "NO: a smaller recorded error than the level before"
                                 : memcmp(local, lod_local, sizeof local) != 0 ? "NO: the LOD node's transform is not its node's"
                                                                               : NULL;
-            if ((have && !ok) || order) failed = 1;
+            const int unreadable = state == RECORDS_MALFORMED;
+            if ((have && !ok) || order || unreadable) failed = 1;
             previous_triangles = b.triangle_count;
             if (have) previous_error = recorded;
-            char rec[32] = "-", got[32] = "-";
+            char rec[32] = "-", allow[32] = "-", got[32] = "-", why[192];
             if (have) snprintf(rec, sizeof rec, "%.8g", recorded);
+            if (have) snprintf(allow, sizeof allow, "%.8g", allowed);
             if (measured >= 0) snprintf(got, sizeof got, "%.8g", measured);
+            snprintf(why, sizeof why, "NO: %s", malformed);
             /* no triangles on one side: nothing within any distance of the other */
-            const char *verdict = have && !ok && measured < 0
+            const char *verdict = unreadable ? why
+                                  : have && !ok && measured < 0
                                       ? (a.triangle_count ? "NO: the level has no triangles" : "NO: LOD0 has no triangles")
-                                  : have && !ok ? "NO: exceeds the recorded error"
+                                  : have && !ok ? "NO: exceeds the allowed error"
                                   : order       ? order
                                   : !have       ? "not recorded"
                                                 : "yes";
-            printf("%-6u %-6u %-6lld %-10u %-14s %-14s %s\n", n, k + 1, (long long)lod->mesh, b.triangle_count, rec, got,
-                   verdict);
+            printf("%-6u %-6u %-6lld %-10u %-14s %-14s %-14s %s\n", n, k + 1, (long long)lod->mesh, b.triangle_count,
+                   rec, allow, got, verdict);
         }
+        free(records);
         bvh_free(&a_tree);
         free(bp);
         free(bt);

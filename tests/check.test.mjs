@@ -73,7 +73,7 @@ test('check: a real output passes, a shrunk recorded error is caught (exit 3)', 
   assert.deepEqual(runHealthProblems(caught), [], describeRun(caught));
   assert.equal(caught.status, 3, describeRun(caught));
   assert.deepEqual(oneLineErrorProblems(caught.stderr), [], describeRun(caught));
-  assert.match(caught.stdout, new RegExp(`^${victim}\\s+1\\s+.*NO: exceeds the recorded error`, 'm'));
+  assert.match(caught.stdout, new RegExp(`^${victim}\\s+1\\s+.*NO: exceeds the allowed error`, 'm'));
 });
 
 test('check: a file without LOD chains says so and exits 0; a bad file is exit 2', { skip }, () => {
@@ -101,7 +101,7 @@ test('check: MSFT_lod.ids not an array -> exit 2; a level without triangles -> e
     for (const p of json.meshes[lod.mesh].primitives) p.mode = 0;
   });
   assert.equal(points.status, 3, describeRun(points));
-  assert.match(points.stdout, new RegExp(`^${victim}\\s+1\\s+\\d+\\s+0\\s+\\S+\\s+-\\s+NO: the level has no triangles`, 'm'));
+  assert.match(points.stdout, new RegExp(`^${victim}\\s+1\\s+\\d+\\s+0\\s+\\S+\\s+\\S+\\s+-\\s+NO: the level has no triangles`, 'm'));
 });
 
 // A gate must also refuse a chain a client cannot switch on as recorded (QA): a LOD node or a chained node
@@ -134,5 +134,53 @@ test('check: chains a client cannot switch on as recorded -> exit 3, each row na
     assert.equal(r.status, 3, `${name}: ${describeRun(r)}`);
     assert.deepEqual(oneLineErrorProblems(r.stderr), [], describeRun(r));
     assert.match(r.stdout, new RegExp(row(victim), 'm'), `${name}: ${r.stdout}`);
+  }
+});
+
+// The records are the certificate a CI gate reads (QA): matched to levels by their `node` (a level dropped
+// from MSFT_lod by hand must not shift every later record by one), and a record that cannot be read fails
+// the chain instead of passing as "not recorded". LOD0's own recorded error widens every level's allowance,
+// so it is shown, and a plain (not Draco) LOD0 that claims one is warned about.
+test('check: records matched by node; unreadable records -> exit 3; LOD0 allowance shown', { skip }, (t) => {
+  const checkEdited = editableOutput(t);
+  // one edit per chain, all in one file (one check run): [node, what was done]
+  let chains = [];
+  let kept = [];
+  let slackOf = 0;
+  const r = checkEdited('records.glb', (json) => {
+    chains = json.nodes.map((node, n) => n).filter((n) => json.nodes[n].extensions?.MSFT_lod?.ids?.length > 2);
+    const [dropped, string, notList, twice, slack] = chains.map((n) => json.nodes[n]);
+    assert.ok(slack, `the default scene has five chains of three levels or more: ${chains}`);
+    // the first LOD dropped from the chain: the remaining levels keep their own records and pass
+    dropped.extensions.MSFT_lod.ids.shift();
+    kept = dropped.extras.lodpipe.levels.slice(2).map((l) => l.error);
+    string.extras.lodpipe.levels[1].error = 'big';
+    notList.extras.lodpipe.levels = 5;
+    twice.extras.lodpipe.levels[2].node = twice.extras.lodpipe.levels[1].node;
+    // LOD0 claims an error though it is plain: added to every allowance, shown, warned about
+    slackOf = slack.extras.lodpipe.levels[1].error / 4;
+    slack.extras.lodpipe.levels[0].error = slackOf;
+  });
+  assert.deepEqual(runHealthProblems(r), [], describeRun(r));
+  assert.equal(r.status, 3, describeRun(r));
+  const errors = r.stderr.split('\n').filter((l) => !/: warning: /.test(l)).join('\n');
+  assert.deepEqual(oneLineErrorProblems(errors), [], describeRun(r));
+  const rowsOf = (n) => r.stdout.split('\n').filter((l) => new RegExp(`^${n}\\s+\\d+\\s`).test(l));
+  const cols = (row) => row.trim().split(/\s+/);
+  const [dropped, string, notList, twice, slack] = chains;
+  assert.equal(rowsOf(dropped).length, kept.length, r.stdout);
+  rowsOf(dropped).forEach((row, i) => {
+    assert.ok(Math.abs(Number(cols(row)[4]) - kept[i]) <= 1e-7 * kept[i], `row ${i} shows its own node's record: ${row}`);
+    assert.match(row, /\byes$/);
+  });
+  for (const [n, why] of [[string, /levels\[1\]\.error is not a finite/], [notList, /levels is not an array/],
+    [twice, /levels\[1\] and \[2\] describe the same node/]]) {
+    const rows = rowsOf(n);
+    assert.ok(rows.length > 0 && rows.every((row) => /NO: extras\.lodpipe/.test(row) && why.test(row)), `node ${n}: ${r.stdout}`);
+  }
+  assert.match(r.stderr, new RegExp(`warning: nodes\\[${slack}\\]: LOD0 records an error of [0-9.e-]+ but is not Draco-compressed`));
+  for (const row of rowsOf(slack)) {
+    assert.ok(Math.abs(Number(cols(row)[5]) - (Number(cols(row)[4]) + slackOf)) < 1e-6, `allowed = recorded + LOD0's: ${row}`);
+    assert.match(row, /\byes$/);
   }
 });
