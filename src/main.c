@@ -79,7 +79,8 @@ static void usage(FILE *f)
           "  --viewport-height H    viewport height in pixels (1080)\n"
           "  --fov-y RADIANS        vertical field of view (0.7853981633974483)\n"
           "  --json                 print a machine-readable summary on stdout\n"
-          "  --force                overwrite the input file if OUT names it; batch:\n"
+          "  --force                main job, convert: overwrite the input file if OUT names\n"
+          "                         it; batch:\n"
           "                         rebuild every file, ignoring the cache\n"
           "  --allow-external-uris  accept uris that leave the input's folder\n"
           "  --quiet, -q            no warnings on stderr\n"
@@ -106,7 +107,7 @@ static void usage(FILE *f)
           "\n"
           "exit codes: 0 success, 1 usage error, 2 invalid input, 3 a promise could not\n"
           "be kept, 4 I/O error, 5 batch: some files failed. Errors are one line:\n"
-          "\"lodpipe: FILE: what is wrong\".\n",
+          "\"lodpipe: FILE: what is wrong\". An option a command does not use is refused.\n",
           f);
 }
 
@@ -1134,6 +1135,29 @@ static int set_once(const char **slot, const char *flag, const char *value)
 /* Reads the command line: the command, its operands, the tool's own flags,
  * and the configuration (defaults, then --config FILE, then config flags in
  * the order given). */
+/* Does option `a` take the next argument as its value? */
+static int flag_takes_value(const char *a)
+{
+    return config_flag(a) == 1 || strcmp(a, "-o") == 0 || strcmp(a, "--config") == 0 || strcmp(a, "--depfile") == 0 ||
+           strcmp(a, "-j") == 0 || strcmp(a, "--shard") == 0;
+}
+
+/* The first option on the command line that is not in `allowed` (NULL-ended),
+ * or NULL: a command refuses what it would silently ignore (`check --json`
+ * printing a table, `simplify --draco` compressing nothing). */
+static const char *inapplicable_flag(int argc, char **argv, const char *const *allowed)
+{
+    for (int i = 1; i < argc; ++i) {
+        const char *a = argv[i];
+        if (a[0] != '-' || !a[1]) continue;
+        size_t k = 0;
+        while (allowed[k] && strcmp(allowed[k], a) != 0) k++;
+        if (!allowed[k]) return a;
+        if (flag_takes_value(a)) i++;
+    }
+    return NULL;
+}
+
 static int parse(int argc, char **argv, cli *c)
 {
     memset(c, 0, sizeof *c);
@@ -1144,9 +1168,7 @@ static int parse(int argc, char **argv, cli *c)
     for (int i = 1; i < argc && !rc; ++i) {
         const char *a = argv[i];
         int kind = config_flag(a);
-        int takes_value = kind == 1 || strcmp(a, "-o") == 0 || strcmp(a, "--config") == 0 ||
-                          strcmp(a, "--depfile") == 0 || strcmp(a, "-j") == 0 || strcmp(a, "--shard") == 0;
-        if (takes_value && i + 1 >= argc) {
+        if (flag_takes_value(a) && i + 1 >= argc) {
             char msg[300];
             snprintf(msg, sizeof msg, "%s needs a value", a);
             rc = usage_error(msg);
@@ -1239,16 +1261,23 @@ int main(int argc, char **argv)
         return cmd_batch(&c);
     }
     /* the commands that take operands only (the main job and batch take -o) */
+#define LOADING_FLAGS "--quiet", "-q", "--allow-external-uris"
+    static const char *const kReadOnly[] = {LOADING_FLAGS, NULL};
+    static const char *const kConvert[] = {LOADING_FLAGS, "--force", "--draco", "--config", NULL};
+    static const char *const kSimplify[] = {LOADING_FLAGS, "--config", "--levels", "--placement", "--optimal-levels",
+                                            "--threads", NULL};
+#undef LOADING_FLAGS
     static const struct {
         const char *name;
         int operands;
         const char *usage;
         int (*run)(const cli *);
+        const char *const *flags; /* the options it uses */
     } kCommands[] = {
-        {"inspect", 1, "inspect needs exactly one FILE", cmd_inspect},
-        {"convert", 2, "convert needs IN and OUT", cmd_convert},
-        {"check", 1, "check needs exactly one FILE", cmd_check},
-        {"simplify", 2, "simplify needs IN and OUTDIR", cmd_simplify},
+        {"inspect", 1, "inspect needs exactly one FILE", cmd_inspect, kReadOnly},
+        {"convert", 2, "convert needs IN and OUT", cmd_convert, kConvert},
+        {"check", 1, "check needs exactly one FILE", cmd_check, kReadOnly},
+        {"simplify", 2, "simplify needs IN and OUTDIR", cmd_simplify, kSimplify},
     };
     for (size_t k = 0; k < sizeof kCommands / sizeof kCommands[0]; ++k) {
         if (strcmp(c.command, kCommands[k].name) != 0) continue;
@@ -1256,6 +1285,12 @@ int main(int argc, char **argv)
             char msg[160];
             snprintf(msg, sizeof msg, "-o belongs to the main job (lodpipe IN -o OUT) and batch, not to %s",
                      kCommands[k].name);
+            return usage_error(msg);
+        }
+        const char *unused = inapplicable_flag(argc, argv, kCommands[k].flags);
+        if (unused) {
+            char msg[300];
+            snprintf(msg, sizeof msg, "%.100s does not apply to %s", unused, kCommands[k].name);
             return usage_error(msg);
         }
         if (c.operand_count != kCommands[k].operands) return usage_error(kCommands[k].usage);
@@ -1267,6 +1302,10 @@ int main(int argc, char **argv)
         return cmd_lod(&c);
     }
     char msg[300];
-    snprintf(msg, sizeof msg, "unknown command %.200s", c.command);
+    /* `lodpipe scene.glb` is the main job without its -o, not an unknown command */
+    if (output_name_ok(c.command) || access(c.command, F_OK) == 0)
+        snprintf(msg, sizeof msg, "no output given: lodpipe %.200s -o OUT", c.command);
+    else
+        snprintf(msg, sizeof msg, "unknown command %.200s", c.command);
     return usage_error(msg);
 }

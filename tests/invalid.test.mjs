@@ -176,6 +176,21 @@ test('CLI contract', { skip }, async (t) => {
   await t.test('inspect without operand -> exit 1', (st) => assertUsageError(st, ['inspect']));
   await t.test('unknown option -> exit 1', (st) => assertUsageError(st, ['convert', '--frobnicate', valid, 'out.glb']));
   await t.test('convert to a name that is neither .glb nor .gltf -> exit 1', (st) => assertUsageError(st, ['convert', valid, 'out.obj']));
+  // an option a command would ignore is refused, naming it (QA: `check --json` printed the table, exit 0)
+  for (const args of [['check', valid, '--json'], ['inspect', valid, '--levels', '1'], ['inspect', '--force', valid],
+    ['convert', valid, 'out.glb', '--placement', 'optimal'], ['convert', valid, 'out.glb', '--json'],
+    ['simplify', valid, '.', '--draco'], ['simplify', valid, '.', '--pixel-error', '2']]) {
+    const flag = args.find((a) => a.startsWith('--'));
+    await t.test(`${args[0]} ${flag} -> exit 1, "does not apply"`, (st) => {
+      assertUsageError(st, args);
+      const r = runLodpipe(args, { cwd: tempDir(st) });
+      assert.match(r.stderr, new RegExp(`${flag} does not apply to ${args[0]}`));
+    });
+  }
+  await t.test('a file without -o -> exit 1, "no output given"', (st) => {
+    assertUsageError(st, [valid]);
+    assert.match(runLodpipe([valid], { cwd: tempDir(st) }).stderr, /no output given: lodpipe .*Duck\.glb -o OUT/);
+  });
 
   await t.test('convert refuses to overwrite its input without --force (exit 1, input unchanged)', (st) => {
     const dir = tempDir(st);
