@@ -615,9 +615,10 @@ int config_check(const lp_config *config, lp_error *err)
                                       "(--viewport-height) %g: every node would be culled", p, h);
     const double per_error = h / (2.0 * tan(config->switching.fov_y / 2.0) * p);
     if (!(per_error <= SWITCHING_MAX_DISTANCE_PER_ERROR))
-        return lp_fail(err, LP_USAGE, "switching.fov_y (--fov-y) %g with switching.pixel_error (--pixel-error) %g puts "
-                                      "the switching distance beyond %g times a level's error",
-                       config->switching.fov_y, p, SWITCHING_MAX_DISTANCE_PER_ERROR);
+        return lp_fail(err, LP_USAGE, "switching.viewport_height (--viewport-height) %g with switching.fov_y (--fov-y) "
+                                      "%g and switching.pixel_error (--pixel-error) %g puts the switching distance "
+                                      "beyond %g times a level's error",
+                       h, config->switching.fov_y, p, SWITCHING_MAX_DISTANCE_PER_ERROR);
     return LP_OK;
 }
 

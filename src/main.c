@@ -1229,7 +1229,8 @@ static int parse(int argc, char **argv, cli *c)
         config_defaults(&file_only);
         const int file_alone = c->config_path && config_load(&file_only, c->config_path, &ignored) == 0 &&
                                config_check(&file_only, &ignored) != 0;
-        lp_say("%s: %s", file_alone ? c->config_path : "the command line", err.msg);
+        if (file_alone || !c->config_path) lp_say("%s: %s", file_alone ? c->config_path : "the command line", err.msg);
+        else lp_say("the command line (with %s): %s", c->config_path, err.msg);
     }
     free(config_args);
     if (rc) return rc;

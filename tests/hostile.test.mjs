@@ -767,13 +767,20 @@ test('the end of a run: stops between renames, the depfile, exit codes, batch er
     const out = path.join(dir, 'out.glb');
     const p = [];
     for (const args of [['--fov-y', '1e-320'], ['--pixel-error', '1e-320'], ['--pixel-error', '1080'],
-      ['--pixel-error', '800', '--viewport-height', '720']]) {
+      ['--pixel-error', '800', '--viewport-height', '720'], ['--viewport-height', '1e300']]) {
       const r = runLodpipe([DUCK, '-o', out, ...args]);
       p.push(...refusalProblems(r, 1, args[0].replace(/^--/, ''), dir).map((x) => `${args.join(' ')}: ${x}`));
     }
     const ok = runLodpipe([DUCK, '-o', out, '--pixel-error', '1079', '--fov-y', '1e-6', '-q']);
     if (ok.status !== 0) p.push(`a narrow but finite camera: ${describeRun(ok)}`);
     assert.deepEqual(p, []);
+    // a rule the file keeps and the flags break names both (QA: "the command line" for a file's key)
+    const config = path.join(dir, 'camera.toml');
+    fs.writeFileSync(config, '[switching]\npixel_error = 800\n');
+    const both = runLodpipe([DUCK, '-o', out, '--config', config, '--viewport-height', '720']);
+    assert.deepEqual(refusalProblems(both, 1, 'the command line (with ', dir, ['camera.toml', 'out.glb']), [], describeRun(both));
+    const file = runLodpipe([DUCK, '-o', out, '--config', config, '--viewport-height', '720', '--pixel-error', '1']);
+    assert.equal(file.status, 0, `the flag mends the file: ${describeRun(file)}`);
   });
 });
 
