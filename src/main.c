@@ -819,7 +819,7 @@ static int cmd_lod(const cli *c)
             jsonw_number(&j, plan.added_error[0]);
             jsonw_raw(&j, "},");
             if (!c->quiet && plan.position_bits > plan.configured_bits)
-                lp_say("%s: mesh %u \"%s\": Draco position bits raised from %d to %d so that every "
+                lp_say("%s: warning: meshes[%u] \"%s\": Draco position bits raised from %d to %d so that every "
                                 "level's error plus quantization stays within its eps",
                         in, m, mesh->name, plan.configured_bits, plan.position_bits);
         }
