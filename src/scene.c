@@ -582,26 +582,57 @@ static void warn_degenerate(scene *s, uint32_t m)
              mesh->diagonal);
 }
 
+/* level_only[m] = 1 when every node that uses mesh m is a level of some
+ * node's MSFT_lod chain (and one does): a level of a chain already written,
+ * whose geometry warnings would repeat LOD0's once per level. */
+static uint8_t *level_only_meshes(const scene *s, size_t mesh_count)
+{
+    uint8_t *is_level = calloc((size_t)s->node_count + 1, 1);
+    uint8_t *level_only = calloc(mesh_count + 1, 1);
+    uint8_t *other_use = calloc(mesh_count + 1, 1);
+    if (!is_level || !level_only || !other_use) {
+        free(is_level);
+        free(other_use);
+        free(level_only);
+        return NULL;
+    }
+    for (uint32_t i = 0; i < s->node_count; ++i)
+        for (uint32_t l = 0; l < s->nodes[i].lod_count; ++l) is_level[s->nodes[i].lod_ids[l]] = 1;
+    for (uint32_t i = 0; i < s->node_count; ++i) {
+        const int64_t m = s->nodes[i].mesh;
+        if (m < 0 || (size_t)m >= mesh_count) continue;
+        if (is_level[i]) level_only[m] = 1;
+        else other_use[m] = 1;
+    }
+    for (size_t m = 0; m < mesh_count; ++m) level_only[m] &= (uint8_t)!other_use[m];
+    free(is_level);
+    free(other_use);
+    return level_only;
+}
+
 static int load_meshes(scene *s, lp_error *err)
 {
     const size_t n = gltf_count(s->doc, GLTF_MESHES);
     s->mesh_count = (uint32_t)n;
     s->meshes = calloc(n ? n : 1, sizeof *s->meshes);
     if (!s->meshes) return lp_fail(err, LP_INVALID, "out of memory for %zu meshes", n);
+    uint8_t *level_only = level_only_meshes(s, n);
+    if (!level_only) return lp_fail(err, LP_INVALID, "out of memory");
     for (size_t m = 0; m < n; ++m) {
         scene_mesh *mesh = &s->meshes[m];
         mesh->name = gltf_name(s->doc, GLTF_MESHES, m);
         const size_t prims = gltf_primitive_count(s->doc, m);
         mesh->primitive_count = (uint32_t)prims;
         mesh->primitives = calloc(prims ? prims : 1, sizeof *mesh->primitives);
-        if (!mesh->primitives) return lp_fail(err, LP_INVALID, "out of memory");
+        if (!mesh->primitives) return free(level_only), lp_fail(err, LP_INVALID, "out of memory");
         for (size_t p = 0; p < prims; ++p) {
             int rc = load_primitive(s, m, p, &mesh->primitives[p], err);
-            if (rc) return rc;
+            if (rc) return free(level_only), rc;
         }
         mesh_bounds(mesh);
-        warn_degenerate(s, (uint32_t)m);
+        if (!level_only[m]) warn_degenerate(s, (uint32_t)m);
     }
+    free(level_only);
     for (uint32_t i = 0; i < s->node_count; ++i)
         if (s->nodes[i].in_scene && s->nodes[i].mesh >= 0) s->meshes[s->nodes[i].mesh].instance_count++;
     for (uint32_t m = 0; m < s->mesh_count; ++m) {

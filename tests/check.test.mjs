@@ -7,7 +7,7 @@ import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
 import {
-  describeRun, oneLineErrorProblems, parseGlb, repoRoot, runHealthProblems, runLodpipe, skipWithoutBinary, tempDir,
+  corpusPath, describeRun, oneLineErrorProblems, parseGlb, repoRoot, runHealthProblems, runLodpipe, skipWithoutBinary, tempDir,
 } from './lib/gltf.mjs';
 
 const skip = skipWithoutBinary();
@@ -182,5 +182,24 @@ test('check: records matched by node; unreadable records -> exit 3; LOD0 allowan
   for (const row of rowsOf(slack)) {
     assert.ok(Math.abs(Number(cols(row)[5]) - (Number(cols(row)[4]) + slackOf)) < 1e-6, `allowed = recorded + LOD0's: ${row}`);
     assert.match(row, /\byes$/);
+  }
+});
+
+// A level mesh of a chain already written repeats LOD0's geometry warnings (suzanne has a duplicated
+// triangle, which every level keeps): inspect and check of an output warn about LOD0 only (QA).
+test('inspect/check of an output: geometry warnings for LOD0, not again for each level', { skip }, (t) => {
+  const dir = tempDir(t);
+  const input = corpusPath('scans/suzanne.glb');
+  const out = path.join(dir, 'suzanne.glb');
+  const made = runLodpipe([input, '-o', out, '--quiet']);
+  assert.equal(made.status, 0, describeRun(made));
+  const warnings = (r) => r.stderr.split('\n').filter((l) => / warning: meshes\[\d+\]/.test(l))
+    .map((l) => l.replace(/^.*?warning: /, ''));
+  const before = warnings(runLodpipe(['inspect', input]));
+  assert.ok(before.length > 0, 'suzanne has a geometry warning');
+  for (const cmd of ['inspect', 'check']) {
+    const r = runLodpipe([cmd, out]);
+    assert.equal(r.status, 0, describeRun(r));
+    assert.deepEqual(warnings(r), before, `${cmd}: ${r.stderr}`);
   }
 });
