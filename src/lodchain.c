@@ -120,8 +120,8 @@ static void copy_members(gltf_doc *doc, const char *array, long long from, long 
 
 /* Rewrites accessor a's data in the new vertex order, in place: it keeps its
  * number and JSON and points at a new bufferView (sparse data folded in),
- * which takes the old view's name and extras (the old view, unused now, is
- * dropped when the document is written). */
+ * which takes the place of the old view (gltf_view_replaces: its name, extras
+ * and extensions come along when nothing else keeps the old view). */
 static int reorder_accessor(gltf_doc *doc, int64_t a, const uint32_t *new_of_old, uint32_t vertex_count,
                             lp_error *err)
 {
@@ -144,12 +144,10 @@ static int reorder_accessor(gltf_doc *doc, int64_t a, const uint32_t *new_of_old
     free(raw);
     free(out);
     if (view < 0) return lp_fail(err, LP_INVALID, "out of memory");
-    char value[32], pointer[64];
-    snprintf(pointer, sizeof pointer, "/accessors/%lld/bufferView", (long long)a);
-    char *old_view = gltf_get_json(doc, pointer);
-    if (old_view)
-        copy_members(doc, "bufferViews", strtoll(old_view, NULL, 10), view, (const char *const[]){"name", "extras", NULL});
-    free(old_view);
+    gltf_accessor old;
+    if (gltf_get_accessor(doc, (size_t)a, &old) == 0 && old.buffer_view >= 0)
+        gltf_view_replaces(doc, view, old.buffer_view);
+    char value[32];
     snprintf(value, sizeof value, "%lld", (long long)view);
     rc = set_json(doc, err, value, "/accessors/%lld/bufferView", (long long)a);
     gltf_remove_jsonf(doc, "/accessors/%lld/byteOffset", (long long)a);
@@ -259,6 +257,7 @@ static int reorder_primitive(scene *s, uint32_t m, uint32_t p, const uint32_t *o
         int type = acc.component_type;
         int64_t view = index_view(s->doc, idx, n, &type);
         if (view < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
+        else if (acc.buffer_view >= 0) gltf_view_replaces(s->doc, view, acc.buffer_view);
         snprintf(value, sizeof value, "%lld", (long long)view);
         if (!rc) rc = set_json(s->doc, err, value, "/accessors/%lld/bufferView", (long long)g.indices);
         gltf_remove_jsonf(s->doc, "/accessors/%lld/byteOffset", (long long)g.indices);

@@ -633,20 +633,57 @@ test('switching distances follow the stretch: a sheared node, and a skinned node
   });
 });
 
-// A reordered accessor's data moves to a new bufferView (README "Output format"); the view it leaves had a
-// name and extras a pipeline may rely on (QA: both were dropped with the old view). They come along.
-test('reordered vertex data: the new bufferView keeps the old view\'s name and extras', { skip: skipRuns }, async (t) => {
-  const input = cowVariant(tempDir(t), 'cow_named_view.gltf', (j) => {
-    const view = j.accessors[j.meshes[0].primitives[0].attributes.POSITION].bufferView;
-    Object.assign(j.bufferViews[view], { name: 'cow vertices', extras: { source: 'scan', id: 7 } });
+// A reordered accessor's data, and the primitive's rewritten indices, move to new bufferViews (README
+// "Output format"); the views they leave had a name, extras and extensions a pipeline may rely on (QA: the
+// index view lost all three, a vertex view its extensions; `lodpipe convert` keeps them). A new view takes
+// them when it takes the old view's place, and only then: an old view that still holds data in use (here a
+// lines mesh reads its first vertices and indices) keeps them, and the new views get no copy.
+test('rewritten vertex and index data: the new bufferViews keep the old views\' name, extras and extensions', { skip: skipRuns }, async (t) => {
+  const META = {
+    vertices: { name: 'cow vertices', extras: { source: 'scan', id: 7 }, extensions: { EXT_lodpipe_test_view: { v: 0 } } },
+    indices: { name: 'cow indices', extras: { id: 8 }, extensions: { EXT_lodpipe_test_view: { v: 1 } } },
+  };
+  const variant = (name, withLines) => cowVariant(tempDir(t), name, (j) => {
+    const prim = j.meshes[0].primitives[0];
+    const vertexView = j.accessors[prim.attributes.POSITION].bufferView;
+    const indexView = j.accessors[prim.indices].bufferView;
+    Object.assign(j.bufferViews[vertexView], structuredClone(META.vertices));
+    Object.assign(j.bufferViews[indexView], structuredClone(META.indices));
+    j.extensionsUsed = [...(j.extensionsUsed || []), 'EXT_lodpipe_test_view'];
+    if (!withLines) return;
+    j.bufferViews[vertexView].byteStride = 12; // two accessors will read it
+    const position = j.accessors.push({ ...j.accessors[prim.attributes.POSITION] }) - 1;
+    const indices = j.accessors.push({ bufferView: indexView, componentType: j.accessors[prim.indices].componentType, count: 2, type: 'SCALAR' }) - 1;
+    j.meshes.push({ name: 'edge', primitives: [{ attributes: { POSITION: position }, indices, mode: 1 }] });
+    j.nodes.push({ name: 'edge', mesh: j.meshes.length - 1 });
+    j.scenes[j.scene ?? 0].nodes.push(j.nodes.length - 1);
   });
-  const run = await checkedStructure(t, input, 'cow with a named vertex view', 'the main job');
-  await t.test('the POSITION accessor\'s view: reordered, named and with extras as before', () => {
-    const j = readRaw(run.out).json;
+  const metaOf = (view) => ({ name: view.name, extras: view.extras, extensions: view.extensions });
+  const none = { name: undefined, extras: undefined, extensions: undefined };
+
+  const moved = await checkedStructure(t, variant('cow_named_views.gltf', false), 'cow with named views', 'the main job');
+  await t.test('the POSITION and index views: rewritten, with the old views\' name, extras and extensions', () => {
+    const j = readRaw(moved.out).json;
     const prim = j.meshes[0].primitives[0];
     assert.ok(j.meshes.length > 1, 'a chain was written (so the vertices were reordered)');
-    const view = j.bufferViews[j.accessors[prim.attributes.POSITION].bufferView];
-    assert.deepEqual([view.name, view.extras], ['cow vertices', { source: 'scan', id: 7 }]);
+    assert.deepEqual(metaOf(j.bufferViews[j.accessors[prim.attributes.POSITION].bufferView]), META.vertices);
+    assert.deepEqual(metaOf(j.bufferViews[j.accessors[prim.indices].bufferView]), META.indices);
+    assert.equal(j.bufferViews.filter((v) => v.name).length, 2, 'the views a level\'s indices got have no name');
+  });
+
+  const kept = await checkedStructure(t, variant('cow_named_views_kept.gltf', true), 'cow with named views a lines mesh keeps', 'the main job');
+  await t.test('old views still in use keep their metadata; the cow\'s new views get no copy', () => {
+    const j = readRaw(kept.out).json;
+    const prim = j.meshes[0].primitives[0];
+    const edge = j.meshes.find((m) => m.name === 'edge').primitives[0];
+    assert.ok(j.meshes.length > 2, 'a chain was written');
+    const viewOf = (a) => j.accessors[a].bufferView;
+    assert.notEqual(viewOf(prim.attributes.POSITION), viewOf(edge.attributes.POSITION), 'the cow\'s vertices moved');
+    assert.notEqual(viewOf(prim.indices), viewOf(edge.indices), 'the cow\'s indices moved');
+    assert.deepEqual(metaOf(j.bufferViews[viewOf(edge.attributes.POSITION)]), META.vertices);
+    assert.deepEqual(metaOf(j.bufferViews[viewOf(edge.indices)]), META.indices);
+    assert.deepEqual(metaOf(j.bufferViews[viewOf(prim.attributes.POSITION)]), none);
+    assert.deepEqual(metaOf(j.bufferViews[viewOf(prim.indices)]), none);
   });
 });
 

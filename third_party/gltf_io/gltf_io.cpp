@@ -573,6 +573,7 @@ struct ViewBytes {
     const uint8_t *ptr = nullptr; // into a loaded buffer, or into owned
     size_t size = 0;
     int slot = 0; // output buffer: 0 the main one, 1 the side buffer (gltf_add_view_in)
+    int64_t replaces = -1; // the view this one takes the place of (gltf_view_replaces)
     std::vector<uint8_t> owned;
 };
 
@@ -1522,6 +1523,13 @@ extern "C" int64_t gltf_add_view_in(gltf_doc *doc, const void *bytes, size_t siz
     }
 }
 
+extern "C" int gltf_view_replaces(gltf_doc *doc, int64_t view, int64_t old_view)
+{
+    if (old_view < 0 || view <= old_view || size_t(view) >= doc->views.size()) return -1;
+    doc->views[size_t(view)].replaces = old_view; // older: a chain of replacements ends
+    return 0;
+}
+
 extern "C" void gltf_sync_mesh_records(gltf_doc *doc)
 {
     const ojson &meshes = array_of(doc->json, "meshes");
@@ -1862,13 +1870,23 @@ void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<glt
         uint64_t v = ref.get<uint64_t>();
         if (v < used.size()) used[v] = 1;
     });
+    // dropped: a view nothing points at any more, unless the input itself left it unused
+    auto dropped = [&](size_t v) {
+        return !used[v] && (v >= doc->referenced_at_load.size() || doc->referenced_at_load[v]);
+    };
     std::vector<int64_t> remap(doc->views.size(), -1);
     std::vector<uint8_t> bin, side;
     ojson views = ojson::array();
     for (size_t v = 0; v < doc->views.size(); ++v) {
-        // dropped: a view nothing points at any more, unless the input itself left it unused
-        if (!used[v] && (v >= doc->referenced_at_load.size() || doc->referenced_at_load[v])) continue;
+        if (dropped(v)) continue;
         ojson view = doc->json["bufferViews"][v];
+        // A view that took the place of one the file no longer has carries
+        // what described it: rewriting data must not lose its metadata.
+        for (int64_t r = doc->views[v].replaces; r >= 0 && dropped(size_t(r)); r = doc->views[size_t(r)].replaces)
+            for (const char *key : {"name", "extras", "extensions"}) {
+                const ojson &old = doc->json["bufferViews"][size_t(r)];
+                if (old.contains(key) && !view.contains(key)) view[key] = old[key];
+            }
         std::vector<uint8_t> &out = doc->views[v].slot ? side : bin;
         while (out.size() % 4) out.push_back(0);
         view["buffer"] = doc->views[v].slot;

@@ -174,6 +174,15 @@ int64_t gltf_add_view(gltf_doc *doc, const void *bytes, size_t size, uint64_t by
  * buffer written as its own file "<OUT stem>.fallback.bin" (also beside a
  * .glb), for data most clients never fetch (Draco's uncompressed fallback). */
 int64_t gltf_add_view_in(gltf_doc *doc, const void *bytes, size_t size, uint64_t byte_stride, int target, int slot);
+/* Records that `view`, added since loading, takes the place of the older
+ * `old_view` (an accessor's data rewritten into it). When the written file no
+ * longer has old_view (nothing points at it any more), view carries its name,
+ * extras and extensions, through a replaced replacement too; when old_view
+ * stays (it holds other data still in use), it keeps them and view gets none.
+ * Several views may take the place of one (the accessors of an interleaved
+ * view, each rewritten): each carries them. Returns 0, or -1 when view is not
+ * newer than old_view or either does not exist. */
+int gltf_view_replaces(gltf_doc *doc, int64_t view, int64_t old_view);
 /* Builds the primitive records (gltf_primitive_count, gltf_get_primitive) of
  * meshes appended since loading; records of earlier meshes stay as they were
  * (pointers into them stay valid). */
