@@ -9,8 +9,9 @@
 //    manifest.json with the exit code expected now): the main job, `check` on its output, and each fuzz
 //    harness (build/fuzz/fuzz_*, when built) on the file.
 // 3. Limits: a node chain deeper than the cap, a node cycle, uris that leave the input's folder (refused,
-//    accepted with --allow-external-uris), JSON nested absurdly deep, declared counts and lengths far beyond
-//    the file: a one-line error and exit 2, quickly (nothing is allocated from a declared size).
+//    accepted with --allow-external-uris), JSON nested absurdly deep, a number beyond a double's range,
+//    declared counts and lengths far beyond the file: a one-line error and exit 2, quickly (nothing is
+//    allocated from a declared size).
 // 4. Safe writes: overwrite refusal (exit 1, input unchanged; --force writes), a missing output folder
 //    (reported before the input is read), a read-only folder (as root, where permissions do not stop
 //    writes: lodpipe runs as user nobody through
@@ -270,6 +271,29 @@ test('limits: refused before allocation, with a one-line error', { skip }, async
     const out = path.join(tempDir(st), 'out.gltf');
     const r = runLodpipe(['convert', ok, out]);
     assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
+  });
+
+  // A JSON number no double holds (QA: the validator passes 1e400; lodpipe exited 2 with nlohmann's
+  // "[json.exception.out_of_range.406]"): numbers are kept as doubles, so it is refused, naming the number
+  // and where it starts. One nearer zero than any double is kept as the nearest, 0.
+  await t.test('a number beyond the range of a double -> exit 2 naming it and its byte; 1e-400 kept as 0', (st) => {
+    const text = (number) => `{"asset":{"version":"2.0"},"extras":{"root":"x","huge":${number}}}`;
+    const at = text('').length - 2;
+    for (const [name, number, shown] of [['huge.gltf', '1e400', '(1e400)'], ['huge_neg.gltf', '-1e400', '(-1e400)'],
+      ['huge_int.gltf', `1${'0'.repeat(400)}`, `(1${'0'.repeat(39)}...)`]]) {
+      const f = path.join(dir, name);
+      fs.writeFileSync(f, text(number));
+      assertRefused(st, f, 2, null);
+      const r = runLodpipe([f, '-o', path.join(tempDir(st), 'out.glb')]);
+      assert.equal(r.status, 2, describeRun(r));
+      assert.equal(r.stderr, `lodpipe: ${f}: JSON has a number beyond the range of a double ${shown} at byte ${at} of the JSON\n`);
+    }
+    const tiny = path.join(dir, 'tiny.gltf');
+    fs.writeFileSync(tiny, text('1e-400'));
+    const out = path.join(tempDir(st), 'out.gltf');
+    const r = runLodpipe(['convert', tiny, out]);
+    assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
+    assert.equal(JSON.parse(fs.readFileSync(out, 'utf8')).extras.huge, 0);
   });
 
   await t.test('an accessor declaring 2^40 elements on a 48-byte buffer -> exit 2', (st) => {

@@ -1174,6 +1174,31 @@ bool json_too_deep(const std::string &text, size_t limit)
     return false;
 }
 
+// A SAX consumer that accepts everything and keeps where the parse failed:
+// ojson::parse reports a number beyond a double's range (406) without it.
+struct ParseFailure {
+    size_t byte = 0;
+    std::string token;
+    bool null() { return true; }
+    bool boolean(bool) { return true; }
+    bool number_integer(ojson::number_integer_t) { return true; }
+    bool number_unsigned(ojson::number_unsigned_t) { return true; }
+    bool number_float(ojson::number_float_t, const std::string &) { return true; }
+    bool string(std::string &) { return true; }
+    bool binary(ojson::binary_t &) { return true; }
+    bool start_object(size_t) { return true; }
+    bool key(std::string &) { return true; }
+    bool end_object() { return true; }
+    bool start_array(size_t) { return true; }
+    bool end_array() { return true; }
+    bool parse_error(size_t position, const std::string &last_token, const nlohmann::detail::exception &)
+    {
+        byte = position;
+        token = last_token;
+        return false;
+    }
+};
+
 // Parses the bytes of a file that was read from (or stands for) `path`; the
 // path names the folder external uris are resolved against.
 void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_t> &file, const gltf_load_options &opt)
@@ -1196,6 +1221,14 @@ void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_
         doc->json = ojson::parse(text);
     } catch (const ojson::parse_error &e) {
         fail(GLTF_INVALID, std::string("JSON does not parse (byte ") + std::to_string(e.byte) + ")");
+    } catch (const ojson::out_of_range &) {
+        // A number no double holds (1e400): the document keeps numbers as
+        // doubles, so it could only come out changed. Refused, saying where.
+        ParseFailure at;
+        ojson::sax_parse(text, &at);
+        std::string number = at.token.size() > 40 ? at.token.substr(0, 40) + "..." : at.token;
+        fail(GLTF_INVALID, "JSON has a number beyond the range of a double (" + number + ") at byte " +
+                               std::to_string(at.byte - at.token.size()) + " of the JSON");
     }
     if (!doc->json.is_object()) fail(GLTF_INVALID, "the JSON document is not an object");
     check_asset_and_extensions(doc->json);
