@@ -556,17 +556,47 @@ static int followed_property(const char *property)
     return is_weights_property(property);
 }
 
-/* A node that has a mesh AND children cannot simply carry MSFT_lod: clients
- * replace the node with its LOD node, children and all, so the children would
- * vanish at coarse levels. Such a node keeps its transform and children and
- * hands its mesh (with skin and morph weights, and animations of those
- * weights) to a new child with the identity transform, which carries the
- * chain. Returns the node that carries the mesh now, or -1. */
+/* What a LOD node copies of the node it stands for (write_lod_node): a
+ * client shows it in the node's place, every instance at every level. */
+static const char *const kLodNodeCopies[] = {"matrix", "translation", "rotation", "scale", "skin", "weights",
+                                             "extensions/EXT_mesh_gpu_instancing", "extensions/KHR_node_visibility",
+                                             NULL};
+
+/* 1 when a client that shows a LOD node in node n's place would lose part of
+ * n: its children (clients replace a node together with them), its camera, or
+ * an extension the LOD node does not copy (a KHR_lights_punctual light, one
+ * lodpipe does not know); MSFT_lod, which the chain writes, aside. */
+static int lost_in_swap(const gltf_doc *doc, uint32_t n, const gltf_node *g)
+{
+    if (g->child_count || g->camera >= 0) return 1;
+    size_t copied = 0;
+    char pointer[96];
+    for (const char *const *key = kLodNodeCopies; *key; ++key) {
+        if (strncmp(*key, "extensions/", 11) != 0) continue;
+        snprintf(pointer, sizeof pointer, "/nodes/%u/%s", n, *key);
+        char *value = gltf_get_json(doc, pointer);
+        copied += value != NULL;
+        free(value);
+    }
+    snprintf(pointer, sizeof pointer, "/nodes/%u/extensions/MSFT_lod", n);
+    char *value = gltf_get_json(doc, pointer);
+    copied += value != NULL;
+    free(value);
+    return g->extension_count > copied;
+}
+
+/* A node that a LOD node cannot stand in for without losing part of it
+ * (lost_in_swap: children, a camera, a light, ...) cannot simply carry
+ * MSFT_lod: that part would vanish at coarse levels. Such a node keeps its
+ * transform, children, camera and extensions and hands its mesh (with skin,
+ * morph weights and EXT_mesh_gpu_instancing, and animations of those weights)
+ * to a new child with the identity transform, which carries the chain.
+ * Returns the node that carries the mesh now, or -1. */
 static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
 {
     gltf_node g;
     gltf_get_node(s->doc, n, &g);
-    if (g.child_count == 0) return n;
+    if (!lost_in_swap(s->doc, n, &g)) return n;
     jsonw j = {0};
     const char *base = s->nodes[n].name;
     jsonw_raw(&j, "{\"name\":");
@@ -610,9 +640,10 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
     return carrier;
 }
 
-/* A LOD node named after scene node `named`, copying the transform, skin,
- * weights and EXT_mesh_gpu_instancing of document node `from` (a client
- * shows the LOD node in its place: every instance, at every level). */
+/* A LOD node named after scene node `named`, copying kLodNodeCopies of
+ * document node `from` (the transform, skin, weights, instancing and
+ * visibility: a client shows the LOD node in its place, every instance at
+ * every level). */
 static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64_t lod_mesh, uint32_t number,
                               lp_error *err)
 {
@@ -626,10 +657,7 @@ static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64
     int64_t id = j.failed ? -1 : gltf_append_json(s->doc, "nodes", j.text);
     jsonw_free(&j);
     if (id < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
-    static const char *const kCopied[] = {"matrix", "translation", "rotation", "scale", "skin", "weights",
-                                          "extensions/EXT_mesh_gpu_instancing", "extensions/KHR_node_visibility",
-                                          NULL};
-    copy_members(s->doc, "nodes", from_node, id, kCopied);
+    copy_members(s->doc, "nodes", from_node, id, kLodNodeCopies);
     return id;
 }
 

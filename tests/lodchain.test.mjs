@@ -218,6 +218,14 @@ const SELF_CASES = [
       fx.out.json.nodes[1].children = [3];
       fx.out.json.scenes[0].nodes = [0];
     } },
+  { name: 'a node with MSFT_lod and a light its LOD nodes lack (in the input too)', expect: ['hierarchy'], match: /extension KHR_lights_punctual/,
+    mutate: (fx) => {
+      for (const j of [fx.inp.json, fx.out.json]) {
+        j.extensions = { KHR_lights_punctual: { lights: [{ type: 'point' }] } };
+        j.extensionsUsed = [...(j.extensionsUsed || []), 'KHR_lights_punctual'];
+        j.nodes[1].extensions = { ...(j.nodes[1].extensions || {}), KHR_lights_punctual: { light: 0 } };
+      }
+    } },
 ];
 
 test('self-test: the checkers pass a hand-made correct chain and catch planted defects', { skip: hausdorffSkip }, async (t) => {
@@ -684,6 +692,38 @@ test('rewritten vertex and index data: the new bufferViews keep the old views\' 
     assert.deepEqual(metaOf(j.bufferViews[viewOf(edge.indices)]), META.indices);
     assert.deepEqual(metaOf(j.bufferViews[viewOf(prim.attributes.POSITION)]), none);
     assert.deepEqual(metaOf(j.bufferViews[viewOf(prim.indices)]), none);
+  });
+});
+
+// A node with a mesh AND a camera, a KHR_lights_punctual light and an extension lodpipe does not know (QA):
+// its LOD nodes carried none of them, so a client that shows a LOD node in the node's place lost the light
+// and the camera at coarse levels. The node keeps them and hands its mesh to a "<node>_mesh" child that
+// carries the chain, as a node with children does (README "Output format": one rule).
+test('a node with a mesh and a camera, a light or an unknown extension hands its mesh to a carrier', { skip: skipRuns }, async (t) => {
+  const input = cowVariant(tempDir(t), 'cow_lamp.gltf', (j, node) => {
+    j.cameras = [{ type: 'orthographic', orthographic: { xmag: 1, ymag: 1, znear: 0.1, zfar: 10 } }];
+    j.extensions = { ...(j.extensions || {}), KHR_lights_punctual: { lights: [{ type: 'point' }] } };
+    j.extensionsUsed = [...(j.extensionsUsed || []), 'KHR_lights_punctual', 'EXT_lodpipe_test_node'];
+    Object.assign(j.nodes[node], { camera: 0, extensions: { KHR_lights_punctual: { light: 0 }, EXT_lodpipe_test_node: { x: 1 } } });
+  });
+  const run = await checkedStructure(t, input, 'cow node with a camera and a light', 'the main job');
+  await t.test('the node keeps its camera, light and extension; its child "<node>_mesh" carries the chain', () => {
+    const j = readRaw(run.out).json;
+    const jin = readRaw(input).json;
+    const node = jin.scenes[jin.scene ?? 0].nodes[0];
+    const n = j.nodes[node];
+    assert.equal(n.mesh, undefined, 'the node handed its mesh on');
+    assert.equal(n.camera, 0);
+    assert.deepEqual(n.extensions, { KHR_lights_punctual: { light: 0 }, EXT_lodpipe_test_node: { x: 1 } });
+    assert.equal(n.children?.length, 1, 'one child, the carrier');
+    const carrier = j.nodes[n.children[0]];
+    assert.equal(carrier.name, `${jin.nodes[node].name}_mesh`);
+    assert.equal(carrier.mesh, 0);
+    assert.deepEqual(['camera', 'matrix', 'translation', 'rotation', 'scale'].filter((k) => carrier[k] !== undefined), []);
+    assert.deepEqual(Object.keys(carrier.extensions), ['MSFT_lod']);
+    const ids = carrier.extensions.MSFT_lod.ids;
+    assert.ok(ids.length > 0, 'a chain');
+    for (const id of ids) assert.deepEqual([j.nodes[id].camera, j.nodes[id].extensions], [undefined, undefined], `LOD node ${id}`);
   });
 });
 

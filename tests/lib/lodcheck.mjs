@@ -45,7 +45,7 @@ export const CHAIN_ASPECTS = [
   ['summary', '--json summary: every mesh of the default scene once, levels consistent with the file'],
   ['eps', 'recorded error <= eps of the ladder level it came from'],
   ['chain', 'MSFT_lod structure: one LOD node per kept level on every instance, same transform/skin/weights, LOD meshes shared by instances, nothing else added'],
-  ['hierarchy', 'a node carrying MSFT_lod has no children (a client that swaps the node would hide them)'],
+  ['hierarchy', 'a node carrying MSFT_lod has no children, camera or extension its LOD nodes lack (a client that swaps the node would lose them)'],
   ['soundness', 'Hausdorff(LOD node mesh, LOD0 mesh) by the CGAL tool <= recorded error, proven'],
   ['unchanged', 'animations, skins, materials, textures, images, samplers, cameras, scenes, other nodes/meshes/accessors unchanged'],
   ['geometry', 'original meshes: same vertices and triangles (as sets of attribute tuples) after the reorder'],
@@ -788,9 +788,25 @@ const TRANSFORM_KEYS = ['matrix', 'translation', 'rotation', 'scale', 'skin', 'w
  *   hausdorff: run the CGAL soundness checks (default true)
  * Returns { problems, notes, stats }.
  */
+/** The node extensions a LOD node copies (README: Output format), and MSFT_lod, which the chain writes. */
+const LOD_NODE_EXTENSIONS = ['EXT_mesh_gpu_instancing', 'KHR_node_visibility', 'MSFT_lod'];
+
 /**
- * A node with a mesh AND children hands its mesh to a new child (the "carrier", README:
- * Output format) that carries the chain. To check the chain with the same rules as
+ * What a client that shows a LOD node in node n's place would lose of n: its children, its camera and
+ * every extension a LOD node does not copy, as strings ([] when nothing).
+ */
+export function lostInSwap(n) {
+  const lost = [];
+  if ((n?.children || []).length) lost.push(`children [${n.children}]`);
+  if (n?.camera !== undefined) lost.push(`camera ${n.camera}`);
+  for (const e of Object.keys(n?.extensions || {})) if (!LOD_NODE_EXTENSIONS.includes(e)) lost.push(`extension ${e}`);
+  return lost;
+}
+
+/**
+ * A node with a mesh AND anything a LOD node would lose in its place (children, a camera, a
+ * light: lostInSwap) hands its mesh to a new child (the "carrier", README: Output format)
+ * that carries the chain. To check the chain with the same rules as
  * everywhere else, fold each carrier back into its node in the parsed output: the node
  * gets the carrier's mesh/skin/weights, MSFT_lod and extras again, animation channels
  * retargeted to the carrier point back at it, and the carrier's slot is left empty. A
@@ -818,7 +834,7 @@ function retargetChannel(ch, n) {
 export function foldCarriers(j, jin, nInNodes, notes) {
   const carriers = new Map();
   (j.nodes || []).forEach((n, i) => {
-    if (i >= nInNodes || !(jin.nodes[i]?.children || []).length || jin.nodes[i].mesh === undefined) return;
+    if (i >= nInNodes || !lostInSwap(jin.nodes[i]).length || jin.nodes[i].mesh === undefined) return;
     const kids = n.children || [];
     const c = kids[kids.length - 1];
     const cn = j.nodes[c];
@@ -831,6 +847,7 @@ export function foldCarriers(j, jin, nInNodes, notes) {
     const n = j.nodes[i];
     const cn = j.nodes[c];
     n.children = n.children.slice(0, -1);
+    if (!n.children.length && !jin.nodes[i].children) delete n.children; // the carrier made the array
     for (const k of ['mesh', 'skin', 'weights']) if (cn[k] !== undefined) n[k] = cn[k];
     n.extensions = { ...(n.extensions || {}), MSFT_lod: cn.extensions.MSFT_lod };
     if (cn.extensions.EXT_mesh_gpu_instancing) n.extensions.EXT_mesh_gpu_instancing = cn.extensions.EXT_mesh_gpu_instancing;
@@ -1040,10 +1057,13 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
   // ---- hierarchy
   for (const [, chain] of chains) {
     for (const n of chain.nodes) {
-      if (nodes[n].children?.length && ![...carriers.values()].includes(n)) {
+      if ([...carriers.values()].includes(n)) continue;
+      if (nodes[n].children?.length) {
         const kids = nodes[n].children.map((c) => `${c}${nodes[c]?.name ? ` "${nodes[c].name}"` : ''}`);
         P('hierarchy', `node ${n}${nodes[n].name ? ` "${nodes[n].name}"` : ''} carries MSFT_lod and has children [${kids.join(', ')}]: a client that replaces the node by a LOD node drops them`);
       }
+      const lost = lostInSwap({ ...nodes[n], children: undefined });
+      if (lost.length) P('hierarchy', `node ${n}${nodes[n].name ? ` "${nodes[n].name}"` : ''} carries MSFT_lod and has ${lost.join(', ')}, which its LOD nodes lack: a client that shows a LOD node in its place loses them`);
     }
   }
 

@@ -1438,6 +1438,8 @@ extern "C" int gltf_get_node(const gltf_doc *doc, size_t index, gltf_node *out)
     out->lod_ids = doc->node_lods[index].data();
     auto extras = n.find("extras");
     out->has_screencoverage = extras != n.end() && extras->is_object() && extras->contains("MSFT_screencoverage");
+    auto extensions = n.find("extensions");
+    out->extension_count = extensions != n.end() && extensions->is_object() ? extensions->size() : 0;
     return 0;
 }
 

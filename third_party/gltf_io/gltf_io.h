@@ -139,6 +139,7 @@ typedef struct gltf_node {
     size_t lod_count;     /* MSFT_lod ids on this node, if any */
     const int64_t *lod_ids;
     int32_t has_screencoverage; /* extras.MSFT_screencoverage present */
+    size_t extension_count;     /* members of its "extensions" object */
 } gltf_node;
 int gltf_get_node(const gltf_doc *doc, size_t index, gltf_node *out);
 
