@@ -101,6 +101,8 @@ typedef struct job {
     pid_t pid;
     capture out, err;
     double started;
+    struct timespec launched; /* coarse wall clock just before its inputs were hashed to launch it */
+    file_refs before;         /* inputs hashed before the launch (changed_input) */
 } job;
 
 typedef struct batch {
@@ -508,6 +510,58 @@ static int still_cached(const batch *b, job *j)
     return 1;
 }
 
+/* ---- inputs that change while their job runs ------------------------------------- */
+
+/* The key is over the inputs' bytes as hashed after the job, but the job built
+ * from the bytes it read at its start: a file replaced in between would pair
+ * its new bytes with the old output, and be "cached" from then on. So before
+ * the launch the batch notes the time and hashes the inputs it knows of (the
+ * file itself and, from the manifest, what it referenced last time); after
+ * the job, an input whose hash differs from that, or whose change time
+ * (ctime, which no program can set back) is not before the launch, changed
+ * while the job ran, and the file is not recorded. The clock is the coarse
+ * one the kernel stamps files with, read before the hashing, so any change
+ * after it is seen; a change in the same tick just before it costs only a
+ * rebuild. */
+static void hash_before_launch(const batch *b, job *j)
+{
+    clock_gettime(CLOCK_REALTIME_COARSE, &j->launched);
+    file_refs *r = &j->before;
+    if (j->old.present) {
+        if (copy_refs(&j->old.inputs, r) != 0) refs_free(r);
+    } else if ((r->items = calloc(1, sizeof *r->items)) != NULL && (r->items[0].name = strdup(j->rel)) != NULL) {
+        r->count = 1;
+    }
+    for (size_t i = 0; i < r->count; ++i) {
+        char *path = resolve_ref(b->source_dir, &r->items[i]);
+        if (!path || sha256_file_hex(path, r->items[i].sha256) != 0) r->items[i].sha256[0] = 0; /* unknown */
+        free(path);
+    }
+}
+
+/* The first input of a built job (its hashes taken after the job) that
+ * changed since hash_before_launch, or NULL. Called after the hashing, so a
+ * change during it shows in the change time. */
+static const file_ref *changed_input(const batch *b, const job *j)
+{
+    for (size_t i = 0; i < j->now.inputs.count; ++i) {
+        const file_ref *f = &j->now.inputs.items[i];
+        for (size_t k = 0; k < j->before.count; ++k) {
+            const file_ref *g = &j->before.items[k];
+            if (g->sha256[0] && g->as_opened == f->as_opened && strcmp(g->name, f->name) == 0 &&
+                strcmp(g->sha256, f->sha256) != 0)
+                return f;
+        }
+        char *path = resolve_ref(b->source_dir, f);
+        struct stat st;
+        int changed = !path || stat(path, &st) != 0 || st.st_ctim.tv_sec > j->launched.tv_sec ||
+                      (st.st_ctim.tv_sec == j->launched.tv_sec && st.st_ctim.tv_nsec >= j->launched.tv_nsec);
+        free(path);
+        if (changed) return f;
+    }
+    return NULL;
+}
+
 /* ---- running one job --------------------------------------------------------------- */
 
 /* Creates the folders above `path` (below OUT_DIR). */
@@ -542,6 +596,7 @@ static int start_job(batch *b, job *j)
         }
         return -1;
     }
+    hash_before_launch(b, j);
     for (int k = 0; k < 2; ++k) {
         fcntl(out_pipe[k], F_SETFD, FD_CLOEXEC);
         fcntl(err_pipe[k], F_SETFD, FD_CLOEXEC);
@@ -718,6 +773,17 @@ static void finish_job(batch *b, job *j, int status)
         if (read_job_summary(b, j) == 0) {
             j->state = JOB_BUILT;
             if (!b->opt->quiet) relay(b, &j->err);
+            const file_ref *changed = changed_input(b, j);
+            if (changed) { /* built from bytes the batch cannot name: not recorded */
+                j->now.present = 0;
+                if (!b->opt->quiet) {
+                    clear_progress(b);
+                    char *path = resolve_ref(b->source_dir, changed);
+                    lp_say("%s: warning: changed while its job ran; %s is built but not cached (the next run builds it again)",
+                           path ? path : changed->name, j->rel);
+                    free(path);
+                }
+            }
             return;
         }
         record_free(&j->now);
@@ -1059,6 +1125,7 @@ static void free_batch(batch *b)
         free(j->err.bytes);
         record_free(&j->old);
         record_free(&j->now);
+        refs_free(&j->before);
     }
     free(b->jobs);
     free(b->source_dir);

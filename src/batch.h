@@ -22,7 +22,9 @@
  *   of the file and of every file it referenced (buffers, images), plus the
  *   SHA-256 of every file the job wrote. A file is skipped ("cached") when its
  *   key is unchanged AND every output it wrote is still there with the
- *   recorded bytes; `force` rebuilds everything. The manifest is written
+ *   recorded bytes; `force` rebuilds everything. A file whose inputs changed
+ *   while its job ran (hash before the launch vs after, or a change time not
+ *   before the launch) is built but not recorded, with a warning. The manifest is written
  *   all-or-nothing (src/output.c) at the end; entries of files outside the
  *   shard are kept, entries of failed or vanished files dropped. One batch at a
  *   time per OUT_DIR.

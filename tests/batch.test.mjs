@@ -361,3 +361,40 @@ test('a batch whose parent ignores SIGTERM still stops its running job (SIGINT)'
   assert.equal(end.signal, 'SIGINT', `the batch ends by the signal (exit ${end.code})`);
   assert.ok(!fs.existsSync(path.join(out, 'b.glb')), 'the running job was stopped, not left to finish b.glb');
 });
+
+/** Resolves when a process whose command line contains `text` runs (pgrep -f), or after 60 s. */
+async function processAppears(text) {
+  const running = () => spawnSync('pgrep', ['-f', text], { encoding: 'utf8' }).stdout.trim() !== '';
+  const deadline = Date.now() + 60000;
+  while (!running() && Date.now() < deadline) await new Promise((r) => setTimeout(r, 20));
+  return running;
+}
+
+// A file replaced while its own job runs (QA): the job built the old bytes, so the manifest must not pair
+// the output with the new bytes; it was hashed only after the job and served as "cached" from then on.
+test('batch: an input replaced while its job runs is built but not cached; the next run builds the new bytes', { skip }, async (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out'), single = path.join(dir, 'single.glb');
+  fs.mkdirSync(src);
+  const input = path.join(src, 'm.glb');
+  fs.copyFileSync(corpusPath('scans/bunny.glb'), input);
+  const child = spawn(lodpipeBin, ['batch', src, '-o', out, '-j', '1', '--json'], { stdio: ['ignore', 'pipe', 'pipe'] });
+  let stderr = '';
+  child.stderr.on('data', (d) => { stderr += d; });
+  const exited = new Promise((resolve) => child.on('exit', (code) => resolve(code)));
+  const jobRuns = await processAppears(input);
+  assert.ok(jobRuns(), 'the job for m.glb started');
+  // replaced in one step (a rename), as an editor or a checkout does, while the job runs (the bunny takes seconds)
+  fs.copyFileSync(corpusPath('scans/fandisk.glb'), path.join(src, '.m.tmp'));
+  fs.renameSync(path.join(src, '.m.tmp'), input);
+  assert.ok(jobRuns(), 'the job was still running when its input was replaced');
+  assert.equal(await exited, 0, stderr);
+  assert.match(stderr, new RegExp(`^lodpipe: ${input.replace(/[.*+?^${}()|[\]\\]/g, '\\$&')}: warning: changed while its job ran; `, 'm'));
+
+  const next = batch(src, out, ['-j', '1']);
+  assert.deepEqual(next.byStatus.built, ['m.glb'], 'not served from the cache');
+  const one = runLodpipe([input, '-o', single]);
+  assert.equal(one.status, 0, describeRun(one));
+  assert.ok(fs.readFileSync(path.join(out, 'm.glb')).equals(fs.readFileSync(single)), 'the output is the new input\'s');
+  assert.deepEqual(batch(src, out, ['-j', '1']).byStatus.cached, ['m.glb'], 'settled: cached once built from stable bytes');
+});
