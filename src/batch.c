@@ -347,7 +347,7 @@ static void load_manifest(batch *b)
             char *source = jsonr_string(&r, jsonr_member(&r, item, "source"));
             char *key = jsonr_string(&r, jsonr_member(&r, item, "key"));
             job probe = {.rel = source};
-            job *j = source ? bsearch(&probe, b->jobs, b->job_count, sizeof *b->jobs, by_relative_path) : NULL;
+            job *j = source && b->job_count ? bsearch(&probe, b->jobs, b->job_count, sizeof *b->jobs, by_relative_path) : NULL;
             if (j && key && strlen(key) == SHA256_HEX - 1 && !j->old.present) {
                 record *o = &j->old;
                 memcpy(o->key, key, SHA256_HEX);
@@ -1089,7 +1089,7 @@ static int prepare(batch *b, lp_error *err)
     b->self[n] = 0;
     int rc = scan(b, "", 0, err);
     if (rc) return rc;
-    qsort(b->jobs, b->job_count, sizeof *b->jobs, by_relative_path);
+    if (b->job_count) qsort(b->jobs, b->job_count, sizeof *b->jobs, by_relative_path); /* jobs is NULL when none */
     if (compute_key_prefix(b)) return lp_fail(err, LP_IO, "out of memory");
     return LP_OK;
 }

@@ -398,3 +398,20 @@ test('batch: an input replaced while its job runs is built but not cached; the n
   assert.ok(fs.readFileSync(path.join(out, 'm.glb')).equals(fs.readFileSync(single)), 'the output is the new input\'s');
   assert.deepEqual(batch(src, out, ['-j', '1']).byStatus.cached, ['m.glb'], 'settled: cached once built from stable bytes');
 });
+
+// No glTF file at all (first run, and again once the only file is gone, with a manifest): a batch of 0 files,
+// exit 0. UBSan stopped it with exit 1 (qsort and bsearch given the NULL list), which also hid other bugs.
+test('batch: a folder without glTF files is an empty batch, exit 0', { skip }, (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out');
+  fs.mkdirSync(src);
+  const empty = batch(src, out);
+  assert.equal(empty.run.status, 0, describeRun(empty.run));
+  assert.equal(empty.summary.files, 0);
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'a.glb'));
+  assert.deepEqual(batch(src, out).byStatus.built, ['a.glb']);
+  fs.rmSync(path.join(src, 'a.glb'));
+  const gone = batch(src, out);
+  assert.equal(gone.run.status, 0, describeRun(gone.run));
+  assert.equal(gone.summary.files, 0);
+});
