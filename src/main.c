@@ -1075,14 +1075,32 @@ static int cmd_check(const cli *c)
     return LP_OK;
 }
 
+/* A whole number at the start of text, decimal digits only (no sign, no
+ * space), at most max; *end after its digits. 0, or -1 when there are no
+ * digits or the number is above max, however many digits it has: sscanf's
+ * %u wrapped a value >= 2^32 (4294967297 read as 1) and skipped leading
+ * white space. */
+static int parse_digits(const char *text, const char **end, unsigned max, unsigned *out)
+{
+    const char *p = text;
+    unsigned long long v = 0;
+    if (*p < '0' || *p > '9') return -1;
+    for (; *p >= '0' && *p <= '9'; ++p)
+        if (v <= max) v = v * 10 + (unsigned)(*p - '0'); /* stays above max once it is */
+    *end = p;
+    if (v > max) return -1;
+    *out = (unsigned)v;
+    return 0;
+}
+
 /* -j N (0..256) and --shard K/N (1 <= K <= N <= 65536). */
 static int parse_batch_value(cli *c, const char *flag, const char *value)
 {
     char msg[300];
     unsigned k = 0, n = 0;
-    int used = 0;
+    const char *end = value;
     if (strcmp(flag, "-j") == 0) {
-        if (sscanf(value, "%u%n", &k, &used) == 1 && value[used] == 0 && value[0] != '-' && value[0] != '+' && k <= 256) {
+        if (parse_digits(value, &end, 256, &k) == 0 && *end == 0) {
             c->jobs = (int)k;
             c->jobs_given = 1;
             return LP_OK;
@@ -1090,8 +1108,8 @@ static int parse_batch_value(cli *c, const char *flag, const char *value)
         snprintf(msg, sizeof msg, "-j %.100s: must be a whole number in 0..256 (0: one per core)", value);
         return usage_error(msg);
     }
-    if (sscanf(value, "%u/%u%n", &k, &n, &used) == 2 && value[used] == 0 && value[0] != '-' && value[0] != '+' &&
-        k >= 1 && n <= 65536 && k <= n) {
+    if (parse_digits(value, &end, 65536, &k) == 0 && *end == '/' && parse_digits(end + 1, &end, 65536, &n) == 0 &&
+        *end == 0 && k >= 1 && k <= n) {
         c->shard_index = k;
         c->shard_count = n;
         return LP_OK;

@@ -283,6 +283,18 @@ test('batch and depfile usage errors exit 1 with one line', { skip }, (t) => {
     ['batch', dir, '-o', path.join(dir, 'o'), '--shard', '0/2'],
     ['batch', dir, '-o', path.join(dir, 'o'), '--shard', '3/2'],
     ['batch', dir, '-o', path.join(dir, 'o'), '-j', 'x'],
+    // out of range whatever the size (sscanf's %u wrapped: 1/4294967297 ran as 1/1, -j 4294967296 as 0), and
+    // white space before as after
+    ['batch', dir, '-o', path.join(dir, 'o'), '--shard', '1/4294967297'],
+    ['batch', dir, '-o', path.join(dir, 'o'), '--shard', '4294967297/4294967298'],
+    ['batch', dir, '-o', path.join(dir, 'o'), '--shard', '1/99999999999999999999999999'],
+    ['batch', dir, '-o', path.join(dir, 'o'), '-j', '4294967296'],
+    ['batch', dir, '-o', path.join(dir, 'o'), '-j', '18446744073709551618'],
+    ['batch', dir, '-o', path.join(dir, 'o'), '-j', ' 2'],
+    ['batch', dir, '-o', path.join(dir, 'o'), '-j', '2 '],
+    ['batch', dir, '-o', path.join(dir, 'o'), '--shard', ' 1/2'],
+    ['batch', dir, '-o', path.join(dir, 'o'), '--shard', '1/ 2'],
+    ['batch', dir, '-o', path.join(dir, 'o'), '--shard', '1/+2'],
     ['batch', dir, '-o', path.join(dir, 'o'), '--depfile', 'x.d'],
     [corpusPath('scans/suzanne.glb'), '-o', path.join(dir, 'x.glb'), '-j', '2'],
     ['inspect', corpusPath('scans/suzanne.glb'), '--shard', '1/2'],
