@@ -838,7 +838,11 @@ static int write_job_config(batch *b, lp_error *err)
             if (w <= 0) break;
             done += (size_t)w;
         }
-        if (close(fd) != 0 || done != n) rc = lp_fail(err, LP_IO, "%s: cannot write (%s)", b->config_path, strerror(errno));
+        if (close(fd) != 0 || done != n) { /* a full disk: no empty temp file left in OUT_DIR */
+            rc = lp_fail(err, LP_IO, "%s: cannot write (%s)", b->config_path, strerror(errno));
+            unlink(b->config_path);
+            b->config_path[0] = 0;
+        }
     }
     free(text);
     return rc;
@@ -1162,6 +1166,7 @@ int batch_run(const batch_options *options)
         if (rc) {
             lp_say("%s", err.msg);
             free_batch(&b);
+            stopsig_restore(&before);
             return rc;
         }
         run_jobs(&b);

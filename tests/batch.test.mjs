@@ -427,3 +427,19 @@ test('batch: a folder without glTF files is an empty batch, exit 0', { skip }, (
   assert.equal(gone.run.status, 0, describeRun(gone.run));
   assert.equal(gone.summary.files, 0);
 });
+
+// The jobs' configuration cannot be written (a full disk; here a file size limit of 0, SIGXFSZ ignored so that
+// the write fails with EFBIG): exit 4 in one line, and the empty temp file it had created is removed.
+test('batch: a jobs\' configuration that cannot be written leaves no temp file (exit 4)', { skip }, (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out');
+  fs.mkdirSync(src);
+  fs.mkdirSync(out);
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'a.glb'));
+  const r = spawnSync('sh', ['-c', 'trap "" XFSZ; ulimit -f 0; exec "$@"', 'sh', lodpipeBin, 'batch', src, '-o', out],
+    { encoding: 'utf8' });
+  assert.equal(r.status, 4, r.stderr);
+  assert.deepEqual(oneLineErrorProblems(r.stderr), []);
+  assert.match(r.stderr, /\.lodpipe-batch-\w+\.toml: cannot write \(File too large\)/);
+  assert.deepEqual(fs.readdirSync(out), [], 'nothing left in OUT_DIR');
+});
