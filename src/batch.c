@@ -1084,6 +1084,18 @@ static int prepare(batch *b, lp_error *err)
         return lp_fail(err, LP_IO, "%s: cannot create the output folder (%s)", b->output_dir, strerror(errno));
     if (src.st_dev == b->output_stat.st_dev && src.st_ino == b->output_stat.st_ino)
         return lp_fail(err, LP_USAGE, "%s: the output folder must differ from the source folder", b->output_dir);
+    /* the manifest is written after every job: a path it cannot take (a
+     * folder there) is reported now, not after all the work */
+    char *manifest = join_path(b->output_dir, MANIFEST_NAME);
+    struct stat st;
+    int rc = LP_OK;
+    if (!manifest) rc = lp_fail(err, LP_IO, "out of memory");
+    else if (lstat(manifest, &st) == 0 && S_ISDIR(st.st_mode))
+        rc = lp_fail(err, LP_IO, "%s: cannot write the cache manifest (Is a directory)", manifest);
+    else if (access(b->output_dir, W_OK) != 0)
+        rc = lp_fail(err, LP_IO, "%s: cannot write the cache manifest (%s)", manifest, strerror(errno));
+    free(manifest);
+    if (rc) return rc;
     if (folder_contains(&b->output_stat, b->source_dir))
         return lp_fail(err, LP_USAGE,
                        "%s: the output folder must not contain the source folder (an output could replace a source)",
@@ -1091,7 +1103,7 @@ static int prepare(batch *b, lp_error *err)
     ssize_t n = readlink("/proc/self/exe", b->self, sizeof b->self - 1);
     if (n <= 0 || (size_t)n >= sizeof b->self - 1) return lp_fail(err, LP_IO, "cannot find the lodpipe binary (/proc/self/exe)");
     b->self[n] = 0;
-    int rc = scan(b, "", 0, err);
+    rc = scan(b, "", 0, err);
     if (rc) return rc;
     if (b->job_count) qsort(b->jobs, b->job_count, sizeof *b->jobs, by_relative_path); /* jobs is NULL when none */
     if (compute_key_prefix(b)) return lp_fail(err, LP_IO, "out of memory");

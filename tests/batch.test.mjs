@@ -443,3 +443,19 @@ test('batch: a jobs\' configuration that cannot be written leaves no temp file (
   assert.match(r.stderr, /\.lodpipe-batch-\w+\.toml: cannot write \(File too large\)/);
   assert.deepEqual(fs.readdirSync(out), [], 'nothing left in OUT_DIR');
 });
+
+// A manifest path that cannot be written (a folder there) is reported before any job runs (QA: it was found only
+// after every file was built, exit 4 with a JSON summary saying failed 0).
+test('batch: a cache manifest that cannot be written is refused before the work (exit 4)', { skip }, (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out');
+  fs.mkdirSync(src);
+  fs.mkdirSync(path.join(out, '.lodpipe-cache.json'), { recursive: true });
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'a.glb'));
+  const r = runLodpipe(['batch', src, '-o', out, '--json']);
+  assert.equal(r.status, 4, describeRun(r));
+  assert.deepEqual(oneLineErrorProblems(r.stderr), []);
+  assert.equal(r.stderr, `lodpipe: ${path.join(out, '.lodpipe-cache.json')}: cannot write the cache manifest (Is a directory)\n`);
+  assert.equal(r.stdout, '', 'no summary: nothing ran');
+  assert.deepEqual(fs.readdirSync(out), ['.lodpipe-cache.json'], 'no job ran');
+});
