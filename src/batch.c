@@ -312,6 +312,33 @@ static int read_refs(const jsonr *r, uint32_t array, file_refs *out)
     return 0;
 }
 
+/* An entry's count `name`: 0 when it is a whole number in 0..max, else -1. A
+ * hand-edited or damaged entry (a negative or huge count) is a cache miss,
+ * not a number the summary wraps. */
+static int read_count(const jsonr *r, uint32_t item, const char *name, double max, uint64_t *out)
+{
+    double v = jsonr_number(r, jsonr_member(r, item, name), -1);
+    if (!(v >= 0 && v <= max) || v != (double)(uint64_t)v) return -1;
+    *out = (uint64_t)v;
+    return 0;
+}
+
+/* An entry's numbers: meshes fit their uint32_t, triangle counts stay exact
+ * doubles (2^53, far beyond the 2 GiB input limit), seconds finite and >= 0.
+ * 0, or -1 for an entry the cache must not trust. */
+static int read_counts(const jsonr *r, uint32_t item, record *o)
+{
+    uint64_t meshes = 0;
+    double seconds = jsonr_number(r, jsonr_member(r, item, "seconds"), -1);
+    const double exact = 9007199254740992.0; /* 2^53 */
+    if (read_count(r, item, "meshes", 4294967295.0, &meshes) || read_count(r, item, "triangles_in", exact, &o->triangles_in) ||
+        read_count(r, item, "triangles_out", exact, &o->triangles_out) || !(seconds >= 0 && seconds <= 1e9))
+        return -1;
+    o->meshes = (uint32_t)meshes;
+    o->seconds = seconds;
+    return 0;
+}
+
 /* Reads the manifest's entries into the jobs' `old` records. A missing file
  * is an empty cache; a damaged one too (with a warning): the cache only ever
  * saves work, it never decides an output. */
@@ -351,11 +378,8 @@ static void load_manifest(batch *b)
             if (j && key && strlen(key) == SHA256_HEX - 1 && !j->old.present) {
                 record *o = &j->old;
                 memcpy(o->key, key, SHA256_HEX);
-                o->meshes = (uint32_t)jsonr_number(&r, jsonr_member(&r, item, "meshes"), 0);
-                o->triangles_in = (uint64_t)jsonr_number(&r, jsonr_member(&r, item, "triangles_in"), 0);
-                o->triangles_out = (uint64_t)jsonr_number(&r, jsonr_member(&r, item, "triangles_out"), 0);
-                o->seconds = jsonr_number(&r, jsonr_member(&r, item, "seconds"), 0);
-                if (read_refs(&r, jsonr_member(&r, item, "inputs"), &o->inputs) == 0 &&
+                if (read_counts(&r, item, o) == 0 &&
+                    read_refs(&r, jsonr_member(&r, item, "inputs"), &o->inputs) == 0 &&
                     read_refs(&r, jsonr_member(&r, item, "outputs"), &o->outputs) == 0)
                     o->present = 1;
                 else

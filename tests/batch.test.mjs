@@ -459,3 +459,29 @@ test('batch: a cache manifest that cannot be written is refused before the work 
   assert.equal(r.stdout, '', 'no summary: nothing ran');
   assert.deepEqual(fs.readdirSync(out), ['.lodpipe-cache.json'], 'no job ran');
 });
+
+// Hand-corrupted numbers in the manifest (QA: trusted, and shown wrapped in the --json summary): an entry with
+// any number out of range is a cache miss; the file is built again and the summary has its real counts.
+test('batch: a manifest entry with an out-of-range number is a cache miss', { skip }, (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out');
+  fs.mkdirSync(src);
+  const names = ['a.glb', 'b.glb', 'c.glb', 'd.glb', 'e.glb'];
+  for (const f of names) fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, f));
+  const first = batch(src, out, ['-j', '2']);
+  assert.deepEqual(first.byStatus.built, names);
+  const manifestPath = path.join(out, '.lodpipe-cache.json');
+  const manifest = JSON.parse(fs.readFileSync(manifestPath, 'utf8'));
+  const entry = (f) => manifest.entries.find((e) => e.source === f);
+  entry('a.glb').meshes = -1;
+  entry('b.glb').triangles_out = 1e30;
+  entry('c.glb').seconds = -1e308;
+  entry('d.glb').triangles_in = 2.5;
+  fs.writeFileSync(manifestPath, JSON.stringify(manifest));
+  const again = batch(src, out, ['-j', '2']);
+  assert.equal(again.run.status, 0, describeRun(again.run));
+  assert.deepEqual(again.byStatus.built, ['a.glb', 'b.glb', 'c.glb', 'd.glb']);
+  assert.deepEqual(again.byStatus.cached, ['e.glb'], 'an intact entry stays cached');
+  for (const k of ['meshes', 'triangles_in', 'triangles_out']) assert.equal(again.summary[k], first.summary[k], k);
+  for (const r of again.summary.results) assert.ok(r.seconds >= 0 && r.meshes === 1, JSON.stringify(r));
+});
