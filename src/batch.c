@@ -830,6 +830,175 @@ static void finish_job(batch *b, job *j, int status)
     note_error(j, message);
 }
 
+/* ---- outputs that two files would both write ------------------------------------ */
+
+/* Two files of one folder can write the same output: a.gltf and a.GLTF both
+ * write a.bin (a .gltf writes <OUT stem>.bin; with draco.fallback every output
+ * also writes <stem>.fallback.bin, which a.fallback.gltf's .bin is too), and
+ * two inputs can bring different textures of the same name. One of the two
+ * outputs is then silently wrong and the cache never settles. So every name a
+ * job writes is a claim; claims are sorted by name, and a name claimed by two
+ * jobs fails the later job in file order (deterministic), unless both claims
+ * know the same bytes (a texture the two share: output.c leaves an identical
+ * file alone). Before the launch a job's names are its outputs when cached,
+ * else those its run will write (OUT, the buffers) and the textures its last
+ * run wrote (from the manifest); after the jobs, the outputs each one wrote. */
+typedef struct claim {
+    char *name;         /* relative to OUT_DIR */
+    char sha256[SHA256_HEX]; /* "" when the bytes are not known before the job */
+    size_t job;
+} claim;
+
+typedef struct claims {
+    claim *items;
+    size_t count, capacity;
+    int failed; /* out of memory */
+} claims;
+
+static void claim_add(claims *c, size_t job, char *name, const char *sha256)
+{
+    if (!name || c->failed) {
+        free(name);
+        c->failed = 1;
+        return;
+    }
+    if (c->count == c->capacity) {
+        size_t cap = c->capacity ? 2 * c->capacity : 64;
+        claim *p = realloc(c->items, cap * sizeof *p);
+        if (!p) {
+            free(name);
+            c->failed = 1;
+            return;
+        }
+        c->items = p;
+        c->capacity = cap;
+    }
+    claim *k = &c->items[c->count++];
+    k->name = name;
+    k->job = job;
+    snprintf(k->sha256, sizeof k->sha256, "%s", sha256 ? sha256 : ""); /* a copy: fail_job frees the record */
+}
+
+static void claim_refs(claims *c, size_t job, const file_refs *r)
+{
+    for (size_t i = 0; i < r->count; ++i)
+        if (!r->items[i].as_opened) claim_add(c, job, strdup(r->items[i].name), r->items[i].sha256);
+}
+
+/* The file name written beside OUT: its stem (the name up to the last dot, as
+ * gltf_serialize takes it) + suffix. */
+static char *beside(const char *rel, const char *suffix)
+{
+    const char *base = strrchr(rel, '/');
+    base = base ? base + 1 : rel;
+    const char *dot = strrchr(base, '.');
+    size_t stem = dot && dot > base ? (size_t)(dot - rel) : strlen(rel), n = strlen(suffix);
+    char *p = malloc(stem + n + 1);
+    if (!p) return NULL;
+    memcpy(p, rel, stem);
+    memcpy(p + stem, suffix, n + 1);
+    return p;
+}
+
+/* Claims what the job will write, as far as known before it runs. */
+static void claim_planned(const batch *b, claims *c, size_t i)
+{
+    const job *j = &b->jobs[i];
+    size_t n = strlen(j->rel);
+    claim_add(c, i, strdup(j->rel), NULL);
+    if (n > 5 && strcasecmp(j->rel + n - 5, ".gltf") == 0) claim_add(c, i, beside(j->rel, ".bin"), NULL);
+    if (b->opt->config->draco.enabled && b->opt->config->draco.fallback) claim_add(c, i, beside(j->rel, ".fallback.bin"), NULL);
+    if (j->old.present) claim_refs(c, i, &j->old.outputs);
+}
+
+static int by_claim(const void *a, const void *b)
+{
+    const claim *x = a, *y = b;
+    int d = strcmp(x->name, y->name);
+    return d ? d : x->job < y->job ? -1 : x->job > y->job;
+}
+
+/* Marks a job failed by the batch itself, with its one-line error. */
+static void fail_job(batch *b, job *j, int code, const char *message)
+{
+    if (j->state == JOB_PENDING && b->to_build) b->to_build--;
+    j->state = JOB_FAILED;
+    j->exit_code = code;
+    record_free(&j->now);
+    clear_progress(b);
+    fprintf(stderr, "%s\n", message);
+    free(j->error);
+    j->error = strdup(message);
+}
+
+/* Fails every selected job that claims a name an earlier job claims with
+ * other (or unknown) bytes; after the run (`after`), the earlier job too when
+ * the later one's bytes replaced its file. Returns -1 when memory ran out. */
+static int fail_clashes(batch *b, claims *c, int after)
+{
+    if (c->failed) return -1;
+    if (c->count) qsort(c->items, c->count, sizeof *c->items, by_claim);
+    for (size_t k = 0; k < c->count; ++k) {
+        const claim *q = &c->items[k];
+        for (size_t e = k; e-- > 0 && strcmp(c->items[e].name, q->name) == 0;) {
+            const claim *p = &c->items[e];
+            if (p->job == q->job || (p->sha256[0] && strcmp(p->sha256, q->sha256) == 0)) continue;
+            job *first = &b->jobs[p->job], *later = &b->jobs[q->job];
+            char message[700], *target = join_path(b->output_dir, q->name);
+            const char *t = target ? target : q->name;
+            if (later->state != JOB_SKIPPED_SHARD && later->state != JOB_FAILED) {
+                lp_line(message, sizeof message, "lodpipe: %s: writes %s, as %s does; not %s (rename one of them)",
+                        later->source, t, first->source, after ? "recorded" : "built");
+                fail_job(b, later, LP_USAGE, message);
+            }
+            char hex[SHA256_HEX];
+            if (after && (first->state == JOB_BUILT || first->state == JOB_CACHED) &&
+                (!target || sha256_file_hex(target, hex) != 0 || strcmp(hex, p->sha256) != 0)) {
+                lp_line(message, sizeof message, "lodpipe: %s: its %s was replaced by the one %s writes; not recorded (rename one of them)",
+                        first->source, t, later->source);
+                fail_job(b, first, LP_USAGE, message);
+            }
+            free(target);
+            break;
+        }
+    }
+    return 0;
+}
+
+static void claims_free(claims *c)
+{
+    for (size_t i = 0; i < c->count; ++i) free(c->items[i].name);
+    free(c->items);
+}
+
+/* Before the launch: what every file will write, selected or not (a clash
+ * with a file of another shard fails the later file in its own shard). */
+static int check_planned_outputs(batch *b)
+{
+    claims c = {0};
+    for (size_t i = 0; i < b->job_count; ++i) {
+        if (b->jobs[i].state == JOB_CACHED) claim_refs(&c, i, &b->jobs[i].now.outputs);
+        else claim_planned(b, &c, i);
+    }
+    int rc = fail_clashes(b, &c, 0);
+    claims_free(&c);
+    return rc;
+}
+
+/* After the jobs: the outputs recorded for every file, with their bytes. */
+static int check_written_outputs(batch *b)
+{
+    claims c = {0};
+    for (size_t i = 0; i < b->job_count; ++i) {
+        const job *j = &b->jobs[i];
+        if (j->state == JOB_BUILT || j->state == JOB_CACHED) claim_refs(&c, i, &j->now.outputs);
+        else if (j->state == JOB_SKIPPED_SHARD && j->old.present) claim_refs(&c, i, &j->old.outputs);
+    }
+    int rc = fail_clashes(b, &c, 1);
+    claims_free(&c);
+    return rc;
+}
+
 /* ---- the run -------------------------------------------------------------------- */
 
 static int online_cores(void)
@@ -1190,6 +1359,11 @@ int batch_run(const batch_options *options)
     b.progress = !options->quiet && isatty(STDERR_FILENO);
     load_manifest(&b);
     select_jobs(&b);
+    if (check_planned_outputs(&b) != 0) {
+        lp_say("%s: out of memory", b.output_dir);
+        free_batch(&b);
+        return LP_IO;
+    }
     const int cores = online_cores();
     b.jobs_at_once = options->jobs > 0 ? options->jobs : cores;
     if (b.to_build && (size_t)b.jobs_at_once > b.to_build) b.jobs_at_once = (int)b.to_build;
@@ -1207,6 +1381,7 @@ int batch_run(const batch_options *options)
         }
         run_jobs(&b);
         unlink(b.config_path);
+        if (check_written_outputs(&b) != 0) lp_say("%s: out of memory", b.output_dir);
     }
     double wall = lp_seconds() - b.start;
     totals t = count_totals(&b);

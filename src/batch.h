@@ -10,6 +10,10 @@
  *   by exactly the single-file run `lodpipe SRC_DIR/R -o OUT_DIR/R` with the
  *   same effective configuration, so the bytes are those of a single-file run
  *   (external .bin and images land beside it as that run writes them).
+ * - Two files that would write the same file in OUT_DIR (a.gltf and a.GLTF
+ *   both write a.bin) are refused before the launch: the later one in file
+ *   order fails, naming the earlier; a texture replaced by another file's
+ *   output with other bytes, found after the jobs, fails both (batch.c).
  * - A failing file is reported with the job's own one-line error; the other
  *   files complete. batch_run returns LP_OK when no file failed,
  *   LP_SOME_FAILED (5) when at least one did, and LP_USAGE / LP_IO when the

@@ -485,3 +485,80 @@ test('batch: a manifest entry with an out-of-range number is a cache miss', { sk
   for (const k of ['meshes', 'triangles_in', 'triangles_out']) assert.equal(again.summary[k], first.summary[k], k);
   for (const r of again.summary.results) assert.ok(r.seconds >= 0 && r.meshes === 1, JSON.stringify(r));
 });
+
+/** Writes dir/name.gltf + dir/name.bin from a corpus .glb (lodpipe convert). */
+function convertTo(dir, name, asset) {
+  const r = runLodpipe(['convert', corpusPath(asset), path.join(dir, `${name}.gltf`)]);
+  assert.equal(r.status, 0, describeRun(r));
+}
+
+// Two files writing the same output (QA): a.gltf and a.GLTF both write a.bin; with draco.fallback a.glb writes
+// a.fallback.bin, a.fallback.gltf's .bin. One output was silently wrong, exit 0, and the cache never settled.
+// The later file in byte order fails before it runs, naming both; the earlier one is built and then cached.
+test('batch: files whose outputs would collide: the later one fails, naming both; exit 5', { skip }, (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out'), mk = path.join(dir, 'mk');
+  fs.mkdirSync(src);
+  fs.mkdirSync(mk);
+  convertTo(mk, 's', 'scans/suzanne.glb');
+  convertTo(mk, 'c', 'scans/spot.glb');
+  for (const f of ['s.bin', 'c.bin']) fs.copyFileSync(path.join(mk, f), path.join(src, f));
+  fs.copyFileSync(path.join(mk, 's.gltf'), path.join(src, 'a.gltf'));
+  fs.copyFileSync(path.join(mk, 'c.gltf'), path.join(src, 'a.GLTF')); // 'a.GLTF' < 'a.gltf' in byte order
+  for (let run = 0; run < 2; ++run) {
+    const r = batch(src, out, ['-j', '2']);
+    assert.equal(r.run.status, EXIT_SOME_FAILED, describeRun(r.run));
+    assert.deepEqual(r.byStatus[run ? 'cached' : 'built'], ['a.GLTF'], `run ${run}`);
+    assert.deepEqual(r.byStatus.failed, ['a.gltf']);
+    const line = `lodpipe: ${path.join(src, 'a.gltf')}: writes ${path.join(out, 'a.bin')}, as ${path.join(src, 'a.GLTF')} does; ` +
+      'not built (rename one of them)';
+    assert.equal(r.summary.results.find((x) => x.file === 'a.gltf').error, line);
+    assert.ok(r.run.stderr.split('\n').includes(line), r.run.stderr);
+    assert.equal(r.summary.results.find((x) => x.file === 'a.gltf').exit, 1);
+  }
+  const single = path.join(dir, 'single');
+  fs.mkdirSync(single);
+  assert.equal(runLodpipe([path.join(src, 'a.GLTF'), '-o', path.join(single, 'a.GLTF')]).status, 0);
+  assert.ok(fs.readFileSync(path.join(out, 'a.bin')).equals(fs.readFileSync(path.join(single, 'a.bin'))), 'a.bin is a.GLTF\'s');
+
+  // draco.fallback: a.glb's a.fallback.bin is a.fallback.gltf's .bin
+  const src2 = path.join(dir, 'src2'), out2 = path.join(dir, 'out2');
+  fs.mkdirSync(src2);
+  fs.copyFileSync(path.join(mk, 'c.bin'), path.join(src2, 'c.bin'));
+  fs.copyFileSync(path.join(mk, 'c.gltf'), path.join(src2, 'a.fallback.gltf'));
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src2, 'a.glb'));
+  const toml = path.join(dir, 'fallback.toml');
+  fs.writeFileSync(toml, '[draco]\nenabled = true\nfallback = true\n');
+  const fb = batch(src2, out2, ['--config', toml]);
+  assert.equal(fb.run.status, EXIT_SOME_FAILED, describeRun(fb.run));
+  assert.deepEqual(fb.byStatus.built, ['a.fallback.gltf']);
+  assert.deepEqual(fb.byStatus.failed, ['a.glb']);
+  assert.match(fb.summary.results[1].error, /: writes .*a\.fallback\.bin, as .*a\.fallback\.gltf does;/);
+});
+
+// A texture named like another file's output (an image uri "b.bin" beside b.gltf, whose buffer is b.bin): the
+// texture copy and the buffer replace each other. Found when the jobs have written: both files fail, each line
+// naming the other (the earlier one's file was replaced), and neither is cached.
+test('batch: a texture that another file\'s output replaces fails both files', { skip }, (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out'), mk = path.join(dir, 'mk');
+  fs.mkdirSync(src);
+  fs.mkdirSync(mk);
+  convertTo(mk, 's', 'scans/suzanne.glb');
+  fs.copyFileSync(path.join(mk, 's.bin'), path.join(src, 'b.bin'));
+  fs.writeFileSync(path.join(src, 'b.gltf'), fs.readFileSync(path.join(mk, 's.gltf'), 'utf8').replace('"s.bin"', '"b.bin"'));
+  const truck = JSON.parse(fs.readFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck.gltf'), 'utf8'));
+  truck.images[0].uri = 'b.bin';
+  fs.writeFileSync(path.join(src, 'a.gltf'), JSON.stringify(truck));
+  fs.copyFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck0.bin'), path.join(src, 'CesiumMilkTruck0.bin'));
+  for (let run = 0; run < 2; ++run) {
+    const r = batch(src, out, ['-j', '1']);
+    assert.equal(r.run.status, EXIT_SOME_FAILED, describeRun(r.run));
+    assert.deepEqual(r.byStatus.failed, ['a.gltf', 'b.gltf'], `run ${run}`);
+    const [a, b] = r.summary.results.map((x) => x.error);
+    assert.equal(a, `lodpipe: ${path.join(src, 'a.gltf')}: its ${path.join(out, 'b.bin')} was replaced by the one ` +
+      `${path.join(src, 'b.gltf')} writes; not recorded (rename one of them)`);
+    assert.equal(b, `lodpipe: ${path.join(src, 'b.gltf')}: writes ${path.join(out, 'b.bin')}, as ${path.join(src, 'a.gltf')} ` +
+      'does; not recorded (rename one of them)');
+  }
+});
