@@ -267,6 +267,23 @@ test('--depfile: OUT: IN, its referenced files and the config, Make-escaped; non
   assert.equal(glb.status, 0, describeRun(glb));
   assert.equal(fs.readFileSync(path.join(dir, 'sub.d'), 'utf8'), 'sub.glb: suzanne.glb\n');
 
+  // ':' escaped (QA: GNU make said "multiple target patterns"); make itself reads the names back
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(dir, 'in:put.glb'));
+  fs.writeFileSync(path.join(dir, 'a:b.toml'), '[lod]\nlevels = [3]\n');
+  const colon = runLodpipe(['in:put.glb', '-o', 'o:1.glb', '--config', 'a:b.toml', '--depfile', 'o.d'], { cwd: dir });
+  assert.equal(colon.status, 0, describeRun(colon));
+  assert.equal(fs.readFileSync(path.join(dir, 'o.d'), 'utf8'), 'o\\:1.glb: in\\:put.glb a\\:b.toml\n');
+  fs.writeFileSync(path.join(dir, 'Makefile'), 'include o.d\no\\:1.glb:\n\t@echo "[$@] [$^]"\n');
+  const make = spawnSync('make', ['-B', '-n'], { cwd: dir, encoding: 'utf8' });
+  assert.equal(make.status, 0, make.stderr);
+  assert.equal(make.stdout, 'echo "[o:1.glb] [in:put.glb a:b.toml]"\n');
+  // a name ending in a backslash would be a line continuation: refused, like a line break (exit 1, nothing written)
+  fs.writeFileSync(path.join(dir, 'p\\'), '[lod]\nlevels = [3]\n');
+  const tail = runLodpipe(['suzanne.glb', '-o', 'tail.glb', '--config', 'p\\', '--depfile', 'tail.d', '-q'], { cwd: dir });
+  assert.equal(tail.status, 1, describeRun(tail));
+  assert.equal(tail.stderr, 'lodpipe: tail.d: p\\: a name ending in a backslash cannot be written to a depfile\n');
+  assert.ok(!fs.existsSync(path.join(dir, 'tail.d')) && !fs.existsSync(path.join(dir, 'tail.glb')));
+
   // failure: no output and no depfile
   fs.copyFileSync(corpusPath('invalid/truncated.glb'), path.join(dir, 'bad.glb'));
   const bad = runLodpipe(['bad.glb', '-o', 'bad-out.glb', '--depfile', 'bad.d'], { cwd: dir });

@@ -1,5 +1,6 @@
 /* Unit tests for src/depfile: the rule's shape and Make's escaping (spaces,
- * '#', '$', backslashes before a space or '#'), and refusal of line breaks. */
+ * '#', ':', '$', backslashes before a space, '#' or ':'), and refusal of line
+ * breaks and trailing backslashes. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -28,6 +29,21 @@ static void escaping(void)
            "o\\ u\\ t.glb: my\\ dir/a\\ b.gltf x\\#1.bin cost$$.png back\\slash.png tail\\\\\\ space two\\\\\\\\\\#hash\n");
 }
 
+static void colons(void)
+{
+    const char *deps[] = {"C:/in/a.gltf", "x\\:y.bin"};
+    expect("out:1.glb", deps, 2, "out\\:1.glb: C\\:/in/a.gltf x\\\\\\:y.bin\n");
+}
+
+static void trailing_backslash_refused(void)
+{
+    lp_error err = {0, ""};
+    const char *deps[] = {"in.glb", "tex\\"};
+    CHECK(depfile_text("out.glb", deps, 2, &err) == NULL, "a dependency ending in a backslash is refused");
+    CHECK(err.code == LP_USAGE && strstr(err.msg, "ending in a backslash"), "message: %s", err.msg);
+    CHECK(depfile_text("out\\", NULL, 0, &err) == NULL, "a target ending in a backslash is refused");
+}
+
 static void line_breaks_refused(void)
 {
     lp_error err = {0, ""};
@@ -41,6 +57,8 @@ int main(void)
 {
     RUN(plain_rule);
     RUN(escaping);
+    RUN(colons);
     RUN(line_breaks_refused);
+    RUN(trailing_backslash_refused);
     return check_summary();
 }
