@@ -570,12 +570,18 @@ static const file_ref *changed_input(const batch *b, const job *j)
 {
     for (size_t i = 0; i < j->now.inputs.count; ++i) {
         const file_ref *f = &j->now.inputs.items[i];
-        for (size_t k = 0; k < j->before.count; ++k) {
+        int hashed_before = 0;
+        for (size_t k = 0; k < j->before.count && !hashed_before; ++k) {
             const file_ref *g = &j->before.items[k];
-            if (g->sha256[0] && g->as_opened == f->as_opened && strcmp(g->name, f->name) == 0 &&
-                strcmp(g->sha256, f->sha256) != 0)
-                return f;
+            if (!g->sha256[0] || g->as_opened != f->as_opened || strcmp(g->name, f->name) != 0) continue;
+            if (strcmp(g->sha256, f->sha256) != 0) return f;
+            hashed_before = 1;
         }
+        /* the same bytes before the launch and after the job: what the job
+         * read (a change and its undoing in between aside). Only an input
+         * first seen now needs the change time, which a file server's clock
+         * could put ahead of ours (then the file is rebuilt, never stale). */
+        if (hashed_before) continue;
         char *path = resolve_ref(b->source_dir, f);
         struct stat st;
         int changed = !path || stat(path, &st) != 0 || st.st_ctim.tv_sec > j->launched.tv_sec ||
