@@ -509,15 +509,21 @@ function convertTo(dir, name, asset) {
   assert.equal(r.status, 0, describeRun(r));
 }
 
-// Two files writing the same output (QA): a.gltf and a.GLTF both write a.bin; with draco.fallback a.glb writes
-// a.fallback.bin, a.fallback.gltf's .bin. One output was silently wrong, exit 0, and the cache never settled.
-// The later file in byte order fails before it runs, naming both; the earlier one is built and then cached.
-test('batch: files whose outputs would collide: the later one fails, naming both; exit 5', { skip }, (t) => {
+/** A temp folder with src/ (empty), out/ (not made) and mk/ holding s.gltf + s.bin (suzanne). */
+function collisionFolders(t) {
   const dir = tempDir(t);
   const src = path.join(dir, 'src'), out = path.join(dir, 'out'), mk = path.join(dir, 'mk');
   fs.mkdirSync(src);
   fs.mkdirSync(mk);
   convertTo(mk, 's', 'scans/suzanne.glb');
+  return { dir, src, out, mk };
+}
+
+// Two files writing the same output (QA): a.gltf and a.GLTF both write a.bin; with draco.fallback a.glb writes
+// a.fallback.bin, a.fallback.gltf's .bin. One output was silently wrong, exit 0, and the cache never settled.
+// The later file in byte order fails before it runs, naming both; the earlier one is built and then cached.
+test('batch: files whose outputs would collide: the later one fails, naming both; exit 5', { skip }, (t) => {
+  const { dir, src, out, mk } = collisionFolders(t);
   convertTo(mk, 'c', 'scans/spot.glb');
   for (const f of ['s.bin', 'c.bin']) fs.copyFileSync(path.join(mk, f), path.join(src, f));
   fs.copyFileSync(path.join(mk, 's.gltf'), path.join(src, 'a.gltf'));
@@ -557,11 +563,7 @@ test('batch: files whose outputs would collide: the later one fails, naming both
 // texture copy and the buffer replace each other. Found when the jobs have written: both files fail, each line
 // naming the other (the earlier one's file was replaced), and neither is cached.
 test('batch: a texture that another file\'s output replaces fails both files', { skip }, (t) => {
-  const dir = tempDir(t);
-  const src = path.join(dir, 'src'), out = path.join(dir, 'out'), mk = path.join(dir, 'mk');
-  fs.mkdirSync(src);
-  fs.mkdirSync(mk);
-  convertTo(mk, 's', 'scans/suzanne.glb');
+  const { dir, src, out, mk } = collisionFolders(t);
   fs.copyFileSync(path.join(mk, 's.bin'), path.join(src, 'b.bin'));
   fs.writeFileSync(path.join(src, 'b.gltf'), fs.readFileSync(path.join(mk, 's.gltf'), 'utf8').replace('"s.bin"', '"b.bin"'));
   const truck = JSON.parse(fs.readFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck.gltf'), 'utf8'));
