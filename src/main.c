@@ -616,10 +616,18 @@ static int cmd_simplify(const cli *c)
             }
             fprintf(j, "%s{\"mesh\":%u,\"name\":", first ? "" : ",", m);
             json_string(j, mesh->name);
-            fprintf(j, ",\"diagonal\":%.17g,\"triangles\":%u,\"weld\":{\"vertices\":%u,\"locked\":%u,\"degenerate_dropped\":%u},"
-                       "\"seconds_weld\":%.6f,\"seconds_setup\":%.6f,\"levels\":[",
+            fprintf(j, ",\"diagonal\":%.17g,\"triangles\":%u,\"weld\":{\"vertices\":%u,\"locked\":%u,\"degenerate_dropped\":%u,"
+                       "\"degenerate_dangling\":%u},\"seconds_weld\":%.6f,\"seconds_setup\":%.6f,\"levels\":[",
                     r.diagonal, w.triangle_count, w.vertex_count, w.stats.vertices_by_kind[WELD_LOCKED],
-                    w.stats.degenerate_triangles, r.seconds_weld, r.seconds_setup);
+                    w.stats.degenerate_triangles, w.stats.degenerate_dangling, r.seconds_weld, r.seconds_setup);
+            /* as in the main job, but this command writes its levels anyway:
+             * they are certified against level 0, the welded mesh, which
+             * leaves the zero-area triangles out (the weld locks every vertex,
+             * so each level is level 0 again) */
+            if (w.stats.degenerate_dangling && !c->quiet)
+                lp_say("%s: warning: meshes[%u]: %u zero-area triangles may lie off its surface; every vertex is locked "
+                       "and its levels equal level 0, the welded mesh, which leaves them out",
+                       in, m, w.stats.degenerate_dangling);
             for (uint32_t k = 0; k < r.level_count; ++k) {
                 const simplify_level *l = &r.levels[k];
                 fprintf(j, "%s{\"level\":%u,\"fraction\":%.17g,\"eps\":%.17g,\"bound\":%.17g,\"triangles\":%u,\"seconds\":%.6f,",
