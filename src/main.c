@@ -950,16 +950,14 @@ static double recorded_error(const chain_record *records, uint32_t count, int64_
     return -1;
 }
 
-/* Is any primitive of mesh m Draco-compressed in the file? (LOD0's recorded
- * error is its quantization then; a plain LOD0 should record 0.) */
+/* Was any primitive of mesh m Draco-compressed in the file (decoded on
+ * load)? LOD0's recorded error is its quantization then; a plain LOD0 should
+ * record 0. */
 static int mesh_has_draco(const scene *s, uint32_t m)
 {
-    for (uint32_t p = 0; p < s->meshes[m].primitive_count; ++p) {
-        char pointer[96];
-        snprintf(pointer, sizeof pointer, "/meshes/%u/primitives/%u/extensions/KHR_draco_mesh_compression", m, p);
-        char *text = gltf_get_json(s->doc, pointer);
-        free(text);
-        if (text) return 1;
+    for (size_t p = 0; p < gltf_primitive_count(s->doc, m); ++p) {
+        gltf_primitive g;
+        if (gltf_get_primitive(s->doc, m, p, &g) == 0 && g.was_draco) return 1;
     }
     return 0;
 }

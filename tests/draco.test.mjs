@@ -413,6 +413,8 @@ for (const { input, extra, label } of draco_runs) {
     await t.test('lodpipe check passes on the compressed file', () => {
       const c = runLodpipe(['check', out], { timeout: TIMEOUT_MS });
       assert.equal(c.status, 0, describeRun(c));
+      // LOD0's quantization is its recorded error: no warning about a plain LOD0 claiming one (QA)
+      assert.doesNotMatch(c.stderr, /not Draco-compressed/, describeRun(c));
     });
 
     await t.test('recorded error <= eps; CGAL: decoded levels and LOD0 within their recorded errors of the original', { skip: hausdorffSkip }, () => {

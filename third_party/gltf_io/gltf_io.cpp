@@ -601,6 +601,7 @@ struct gltf_doc {
 
     // C records, built after loading
     std::vector<std::vector<CPrimitive>> prims;
+    std::vector<std::pair<size_t, size_t>> draco_decoded; // (mesh, primitive) decoded from KHR_draco_mesh_compression
     std::vector<std::vector<int64_t>> node_children, node_lods, scene_nodes;
     std::vector<std::string> names[GLTF_KIND_COUNT];
     std::vector<std::string> ext_used, ext_required;
@@ -1045,6 +1046,7 @@ void decode_compression(gltf_doc *doc)
             for (size_t p = 0; p < prims.size(); ++p)
                 if (has_ext(prims[p], kDraco)) {
                     decode_draco_primitive(doc, prims[p], at("meshes", m) + ".primitives[" + std::to_string(p) + "]");
+                    doc->draco_decoded.emplace_back(m, p);
                     had_draco = true;
                 }
         }
@@ -1093,7 +1095,8 @@ void build_mesh_records(gltf_doc *doc, size_t m)
             r.target_count = cp.targets.size();
             r.target_attribute_counts = cp.target_counts.data();
             r.target_attributes = cp.target_ptrs.data();
-            r.was_draco = 0;
+            r.was_draco = std::find(doc->draco_decoded.begin(), doc->draco_decoded.end(), std::make_pair(m, p)) !=
+                          doc->draco_decoded.end();
         }
     }
 }
