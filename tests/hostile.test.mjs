@@ -273,6 +273,21 @@ test('limits: refused before allocation, with a one-line error', { skip }, async
     assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
   });
 
+  // An object of n keys costs n^2 in the reader's order-keeping objects (QA: 500k keys in extras, 7 MB, took
+  // 7 minutes): more than 16,384 members is refused at once, naming the byte; 16,384 is kept.
+  await t.test('a JSON object of more than 16,384 members -> exit 2 at once; 16,384 kept', (st) => {
+    const keys = (n) => `{"asset":{"version":"2.0"},"extras":{${Array.from({ length: n }, (_, i) => `"k${i}":${i}`).join(',')}}}`;
+    const f = path.join(dir, 'many_keys.gltf');
+    fs.writeFileSync(f, keys(500000));
+    assertRefused(st, f, 2, /JSON has an object with more than 16384 members \(at byte \d+\)/);
+    const ok = path.join(dir, 'keys_16384.gltf');
+    fs.writeFileSync(ok, keys(16384));
+    const out = path.join(tempDir(st), 'out.gltf');
+    const r = runLodpipe(['convert', ok, out]);
+    assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
+    assert.equal(Object.keys(JSON.parse(fs.readFileSync(out, 'utf8')).extras).length, 16384);
+  });
+
   // A JSON number no double holds (QA: the validator passes 1e400; lodpipe exited 2 with nlohmann's
   // "[json.exception.out_of_range.406]"): numbers are kept as doubles, so it is refused, naming the number
   // and where it starts. One nearer zero than any double is kept as the nearest, 0.

@@ -47,6 +47,7 @@ const uint64_t kDefaultMaxFileBytes = 2ull << 30; // 2 GiB
 // copies (and tinygltf walks) values recursively, and ~20,000 levels overflow the
 // stack. glTF itself nests about 8 levels; extras get the rest.
 const size_t kMaxJsonDepth = 512;
+const size_t kMaxJsonMembers = 16384; // members of one JSON object (json_shape_problem)
 // Largest decoded / compressed size ratio accepted from EXT_meshopt_compression (the
 // codecs of libmeshoptimizer 0.18 stay below 64; room left for later versions).
 const uint64_t kMeshoptMaxExpansion = 4096;
@@ -1156,10 +1157,14 @@ void list_external_files(gltf_doc *doc)
 }
 
 
-// True when the JSON text nests arrays/objects deeper than `limit` (strings skipped).
-bool json_too_deep(const std::string &text, size_t limit)
+// Why the JSON text is refused before it is parsed, or "": arrays and objects
+// nested deeper than kMaxJsonDepth, or an object with more than
+// kMaxJsonMembers members (the parser's ordered objects find each new key by
+// a linear search, so an object of n keys costs n^2: 500k keys took minutes).
+// A syntax error is left to the parser, which says where.
+std::string json_shape_problem(const std::string &text)
 {
-    size_t depth = 0;
+    std::vector<size_t> members; // per open container: members so far, or SIZE_MAX for an array
     bool in_string = false;
     for (size_t i = 0; i < text.size(); ++i) {
         const char c = text[i];
@@ -1169,12 +1174,17 @@ bool json_too_deep(const std::string &text, size_t limit)
         } else if (c == '"') {
             in_string = true;
         } else if (c == '[' || c == '{') {
-            if (++depth > limit) return true;
-        } else if ((c == ']' || c == '}') && depth) {
-            --depth;
+            if (members.size() == kMaxJsonDepth)
+                return "JSON nests arrays and objects deeper than " + std::to_string(kMaxJsonDepth) + " levels";
+            members.push_back(c == '{' ? 0 : SIZE_MAX);
+        } else if ((c == ']' || c == '}') && !members.empty()) {
+            members.pop_back();
+        } else if (c == ':' && !members.empty() && members.back() != SIZE_MAX && ++members.back() > kMaxJsonMembers) {
+            return "JSON has an object with more than " + std::to_string(kMaxJsonMembers) + " members (at byte " +
+                   std::to_string(i) + ")";
         }
     }
-    return false;
+    return "";
 }
 
 // A SAX consumer that accepts everything and keeps where the parse failed:
@@ -1218,8 +1228,8 @@ void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_
     if (glb) parse_glb(file, &text, &bin, &bin_size);
     else text.assign(file.begin(), file.end());
 
-    if (json_too_deep(text, kMaxJsonDepth))
-        fail(GLTF_INVALID, "JSON nests arrays and objects deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    const std::string shape = json_shape_problem(text);
+    if (!shape.empty()) fail(GLTF_INVALID, shape);
     try {
         doc->json = ojson::parse(text);
     } catch (const ojson::parse_error &e) {
