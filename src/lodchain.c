@@ -1,6 +1,7 @@
 /* lodchain.c - see lodchain.h. */
 #include "lodchain.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -746,8 +747,15 @@ static int instance_max_scale(const scene *s, uint32_t node, double *scale, lp_e
     int rc = accessor_read_floats(s->doc, index, &v, &count, &components, err);
     if (!rc && count) {
         double best = 0;
-        for (size_t i = 0; i < (size_t)count * components; ++i) best = fmax(best, fabs((double)v[i]));
+        int finite = 1;
+        for (size_t i = 0; i < (size_t)count * components; ++i) {
+            finite &= isfinite(v[i]) != 0; /* fmax would skip a NaN */
+            best = fmax(best, fabs((double)v[i]));
+        }
         *scale = best;
+        if (!finite)
+            rc = lp_fail(err, LP_INVALID, "nodes[%u].extensions.EXT_mesh_gpu_instancing: a SCALE value is NaN or "
+                                          "infinite, so no switching distance can be written", node);
     }
     free(v);
     return rc;
@@ -766,6 +774,8 @@ static int annotate_node(scene *s, int64_t node_id, uint32_t placed, uint32_t m,
     double stretch;
     if ((rc = scene_mesh_stretch(s, placed, &stretch, err)) != 0) return rc;
     const double scale = stretch * instance_scale;
+    if (!(scale <= FLT_MAX))
+        return lp_fail(err, LP_INVALID, "nodes[%u]: its instances stretch the mesh beyond float range", node);
     const double radius = 0.5 * diagonal * scale;
     jsonw ids = {0}, coverage = {0}, meta = {0};
     jsonw_raw(&ids, "{\"ids\":[");

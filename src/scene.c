@@ -128,14 +128,16 @@ int scene_mesh_stretch(const scene *s, uint32_t node, double *stretch, lp_error 
         double bind[16], m[16];
         for (int i = 0; i < 16; ++i) bind[i] = k < ibm_count ? (double)ibm[16 * (size_t)k + i] : (i % 5 == 0);
         mat_mul(s->nodes[(uint32_t)j].world, bind, m);
+        for (int i = 0; i < 16; ++i)
+            if (!isfinite(m[i])) best = INFINITY; /* a NaN matrix: fmax would skip it */
         best = fmax(best, scene_max_scale(m));
     }
     jsonr_free(&r);
     free(joints);
     free(ibm);
     if (!isfinite(best) || best > FLT_MAX)
-        return lp_fail(err, LP_INVALID, "nodes[%u]: a joint of skins[%lld] stretches the mesh beyond float range", node,
-                       (long long)skin);
+        return lp_fail(err, LP_INVALID, "nodes[%u]: a joint of skins[%lld] is NaN or stretches the mesh beyond float range",
+                       node, (long long)skin);
     if (joint_count) *stretch = best;
     return LP_OK;
 }

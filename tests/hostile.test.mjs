@@ -666,6 +666,29 @@ test('a mesh without primitives is kept as it is; a world transform beyond float
       assert.match(r.stderr, /nodes\[\d\]: its world transform is beyond the float range/);
     }
   });
+  // An instance SCALE of Infinity or NaN (a validator error) wrote "distance": null or 0 with exit 0 (QA)
+  await t.test('an EXT_mesh_gpu_instancing SCALE of Infinity or NaN: exit 2 naming the node', (st) => {
+    const dir = tempDir(st);
+    const { json, bin } = parseGlb(fs.readFileSync(DUCK));
+    const node = json.nodes.findIndex((n) => n.mesh !== undefined);
+    const names = [];
+    for (const [name, value] of [['inf.glb', Infinity], ['nan.glb', NaN]]) {
+      const scale = Buffer.from(new Float32Array([value, 1, 1, 1, 1, 1]).buffer);
+      const padded = Buffer.concat([bin, Buffer.alloc((4 - (bin.length % 4)) % 4)]);
+      const j = structuredClone(json);
+      j.bufferViews.push({ buffer: 0, byteOffset: padded.length, byteLength: scale.length });
+      j.accessors.push({ bufferView: j.bufferViews.length - 1, componentType: 5126, count: 2, type: 'VEC3' });
+      j.buffers[0].byteLength = padded.length + scale.length;
+      j.nodes[node].extensions = { EXT_mesh_gpu_instancing: { attributes: { SCALE: j.accessors.length - 1 } } };
+      j.extensionsUsed = [...(j.extensionsUsed || []), 'EXT_mesh_gpu_instancing'];
+      const input = path.join(dir, name);
+      writeGlb(input, j, Buffer.concat([padded, scale]));
+      names.push(name);
+      const r = runLodpipe([input, '-o', path.join(dir, 'out.glb')]);
+      assert.deepEqual(refusalProblems(r, 2, name, dir, names), [], describeRun(r));
+      assert.match(r.stderr, new RegExp(`nodes\\[${node}\\]\\.extensions\\.EXT_mesh_gpu_instancing: a SCALE value is NaN or infinite`));
+    }
+  });
 });
 
 // The end of a run (QA, README "Exit codes"): a stop signal between two renames must not leave an output half
