@@ -225,6 +225,21 @@ test('limits: refused before allocation, with a one-line error', { skip }, async
     assertRefused(st, f, 2, /outside the input's folder/);
   });
 
+  // "%00" decodes to a NUL, where the file system ends the name: "good.bin%00.png" read good.bin (QA). Refused,
+  // as is an empty uri (it said "points outside the input's folder").
+  await t.test('a uri decoding to a NUL byte, and an empty uri -> exit 2 naming the object', (st) => {
+    const dir = tempDir(st);
+    const m = triangleModel();
+    fs.writeFileSync(path.join(dir, 'good.bin'), m.bin);
+    for (const [name, uri, needle] of [['nul.gltf', 'good.bin%00.png', /buffers\[0\]\.uri "good\.bin%00\.png" decodes to a name with a NUL byte/],
+      ['empty.gltf', '', /buffers\[0\]\.uri is empty/]]) {
+      m.json.buffers[0].uri = uri;
+      const f = path.join(dir, name);
+      fs.writeFileSync(f, JSON.stringify(m.json));
+      assertRefused(st, f, 2, needle);
+    }
+  });
+
   // With the flag, images outside the input's folder are read where they are (a relative "..", an absolute
   // path, a file:// uri) and the output refers to the same files: the relative one rewritten for the output's
   // folder, the others kept; nothing is written outside the output folder. Another scheme cannot be read.

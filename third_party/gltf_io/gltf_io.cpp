@@ -696,6 +696,24 @@ bool is_meshopt_fallback(const ojson &buffer)
     return m != e->end() && m->is_object() && m->value("fallback", false) == true;
 }
 
+// The file external uri `uri` of object `where` names, refused when it is
+// empty, decodes to a name with a NUL byte (the file system would read the
+// name only up to it: another file), leaves the input's folder without
+// --allow-external-uris, or is not a local file.
+std::string external_file_of(const std::string &where, const std::string &uri, const gltf_load_options &opt,
+                             const std::string &dir)
+{
+    if (uri.empty()) fail(GLTF_INVALID, where + ".uri is empty");
+    const std::string decoded = tinygltf::dlib::urldecode(uri);
+    if (decoded.find('\0') != std::string::npos)
+        fail(GLTF_INVALID, where + ".uri \"" + uri + "\" decodes to a name with a NUL byte (%00)");
+    if (!opt.allow_external_uris && uri_escapes(uri, decoded))
+        fail(GLTF_INVALID, where + ".uri \"" + uri + "\" points outside the input's folder (use --allow-external-uris)");
+    const std::string full = resolve_uri(dir, uri);
+    if (full.empty()) fail(GLTF_IO, where + ": cannot read \"" + uri + "\" (not a local file)");
+    return full;
+}
+
 // Checks everything tinygltf would index: buffer lengths and uris, bufferView
 // ranges against their buffers, images against bufferViews.
 void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, const std::string &dir)
@@ -706,12 +724,7 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
         if (buffers[b].contains("uri") && !is_meshopt_fallback(buffers[b])) {
             const std::string uri = buffers[b]["uri"].get<std::string>();
             if (!is_data_uri(uri)) {
-                const std::string decoded = tinygltf::dlib::urldecode(uri);
-                if (!opt.allow_external_uris && uri_escapes(uri, decoded))
-                    fail(GLTF_INVALID, at("buffers", b) + ".uri \"" + uri +
-                                           "\" points outside the input's folder (use --allow-external-uris)");
-                const std::string full = resolve_uri(dir, uri);
-                if (full.empty()) fail(GLTF_IO, at("buffers", b) + ": cannot read \"" + uri + "\" (not a local file)");
+                const std::string full = external_file_of(at("buffers", b), uri, opt, dir);
                 const uint64_t size = require_regular_file(full, at("buffers", b), uri);
                 uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
                 if (size > cap) fail(GLTF_INVALID, at("buffers", b) + ": \"" + uri + "\" is too large");
@@ -759,12 +772,7 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
         } else if (images[i].contains("uri")) {
             const std::string uri = images[i]["uri"].get<std::string>();
             if (!is_data_uri(uri)) {
-                const std::string decoded = tinygltf::dlib::urldecode(uri);
-                if (!opt.allow_external_uris && uri_escapes(uri, decoded))
-                    fail(GLTF_INVALID, path + ".uri \"" + uri + "\" points outside the input's folder (use --allow-external-uris)");
-                const std::string full = resolve_uri(dir, uri);
-                if (full.empty()) fail(GLTF_IO, path + ": cannot read \"" + uri + "\" (not a local file)");
-                require_regular_file(full, path, uri);
+                require_regular_file(external_file_of(path, uri, opt, dir), path, uri);
             }
         }
     }
