@@ -962,6 +962,9 @@ static int mesh_has_draco(const scene *s, uint32_t m)
     return 0;
 }
 
+/* The longest chain `check` measures (lodpipe writes at most 16 levels). */
+#define CHECK_MAX_LEVELS 64
+
 /* lodpipe check FILE: measures every LOD against its LOD0 by dense sampling
  * and compares with the recorded error; exit 3 when a measured distance
  * exceeds its record. */
@@ -1018,6 +1021,22 @@ static int cmd_check(const cli *c)
         double previous_error = lod0_error, local[16], lod_local[16];
         scene_local_transform(&s, n, local);
         for (uint32_t k = 0; k < node->lod_count && !rc; ++k) {
+            /* each measurement samples the whole level: a hostile chain that
+             * lists one node 100k times must not cost 100k of them */
+            char skipped[96];
+            uint32_t same = 0;
+            while (same < k && node->lod_ids[same] != node->lod_ids[k]) same++;
+            if (k == CHECK_MAX_LEVELS)
+                snprintf(skipped, sizeof skipped, "NO: %u levels beyond the %d this check measures", node->lod_count - k,
+                         CHECK_MAX_LEVELS);
+            else if (same < k)
+                snprintf(skipped, sizeof skipped, "NO: the same LOD node as level %u", same + 1);
+            if (k == CHECK_MAX_LEVELS || same < k) {
+                printf("%-6u %-6u %-6s %-10s %-14s %-14s %-14s %s\n", n, k + 1, "-", "-", "-", "-", "-", skipped);
+                failed = 1;
+                if (k == CHECK_MAX_LEVELS) break;
+                continue;
+            }
             const scene_node *lod = &s.nodes[node->lod_ids[k]];
             const double recorded = recorded_error(records, record_count, node->lod_ids[k]);
             const int have = recorded >= 0;

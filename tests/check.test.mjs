@@ -203,3 +203,21 @@ test('inspect/check of an output: geometry warnings for LOD0, not again for each
     assert.deepEqual(warnings(r), before, `${cmd}: ${r.stderr}`);
   }
 });
+
+// A hostile chain must not cost a measurement per listed id (QA: [1]*1000 took 42 s, 100k ids an hour): a
+// repeated LOD node is a NO row without measuring it again, and a chain longer than 64 levels ends in one NO row.
+test('check: a repeated LOD node and a chain over 64 levels -> NO rows, not measured, exit 3', { skip }, (t) => {
+  const checkEdited = editableOutput(t);
+  let victim = -1;
+  const r = checkEdited('repeats.glb', (json) => {
+    victim = json.nodes.findIndex((node) => node.extensions?.MSFT_lod?.ids?.length > 1);
+    const ids = json.nodes[victim].extensions.MSFT_lod.ids;
+    json.nodes[victim].extensions.MSFT_lod.ids = [ids[0], ...Array(99).fill(ids[0])];
+  });
+  assert.equal(r.status, 3, describeRun(r));
+  const rows = r.stdout.split('\n').filter((l) => new RegExp(`^${victim}\\s+\\d+\\s`).test(l));
+  assert.equal(rows.length, 65, r.stdout);
+  assert.match(rows[1], /NO: the same LOD node as level 1$/);
+  assert.match(rows[63], /^\S+\s+64\s.*NO: the same LOD node as level 1$/);
+  assert.match(rows[64], /^\S+\s+65\s.*NO: 36 levels beyond the 64 this check measures$/);
+});
