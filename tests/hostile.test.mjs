@@ -227,12 +227,13 @@ test('limits: refused before allocation, with a one-line error', { skip }, async
 
   // "%00" decodes to a NUL, where the file system ends the name: "good.bin%00.png" read good.bin (QA). Refused,
   // as is an empty uri (it said "points outside the input's folder").
-  await t.test('a uri decoding to a NUL byte, and an empty uri -> exit 2 naming the object', (st) => {
+  await t.test('a uri decoding to a NUL byte, an empty uri, a data uri without base64 -> exit 2 naming the object', (st) => {
     const dir = tempDir(st);
     const m = triangleModel();
     fs.writeFileSync(path.join(dir, 'good.bin'), m.bin);
     for (const [name, uri, needle] of [['nul.gltf', 'good.bin%00.png', /buffers\[0\]\.uri "good\.bin%00\.png" decodes to a name with a NUL byte/],
-      ['empty.gltf', '', /buffers\[0\]\.uri is empty/]]) {
+      ['empty.gltf', '', /buffers\[0\]\.uri is empty/],
+      ['no_base64.gltf', 'data:application/octet-stream,AAAA', /buffers\[0\]\.uri is a data: uri without ";base64,"/]]) {
       m.json.buffers[0].uri = uri;
       const f = path.join(dir, name);
       fs.writeFileSync(f, JSON.stringify(m.json));

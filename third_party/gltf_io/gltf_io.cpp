@@ -467,6 +467,15 @@ bool ends_with_ci(const std::string &s, const char *suffix)
 
 bool is_data_uri(const std::string &uri) { return uri.compare(0, 5, "data:") == 0; }
 
+// glTF's data uris carry base64 ("data:[<mediatype>];base64,<data>"); one
+// without it is malformed input (tinygltf would look for a file of that name).
+void require_base64_data_uri(const std::string &where, const std::string &uri)
+{
+    const size_t comma = uri.find(',');
+    if (comma == std::string::npos || comma < 12 || uri.compare(comma - 7, 7, ";base64") != 0)
+        fail(GLTF_INVALID, where + ".uri is a data: uri without \";base64,\" (glTF data uris are base64)");
+}
+
 // A scheme ("file:", "http:") is a ':' of the uri itself before any '/'; an
 // encoded one (%3A) is part of a file name, as lodpipe writes "x:y.bin".
 bool uri_has_scheme(const std::string &uri)
@@ -673,7 +682,8 @@ void check_asset_and_extensions(const ojson &root)
     auto asset = root.find("asset");
     if (asset == root.end() || !asset->is_object()) fail(GLTF_INVALID, "asset is missing (not a glTF 2.0 file?)");
     auto ver = asset->find("version");
-    if (ver == asset->end() || !ver->is_string()) fail(GLTF_INVALID, "asset.version is missing");
+    if (ver == asset->end()) fail(GLTF_INVALID, "asset.version is missing");
+    if (!ver->is_string()) fail(GLTF_INVALID, "asset.version must be a string such as \"2.0\"");
     const std::string v = ver->get<std::string>();
     if (v.size() < 2 || v[0] != '2' || v[1] != '.')
         fail(GLTF_INVALID, "asset.version is \"" + v + "\"; only glTF 2.0 is supported");
@@ -723,7 +733,9 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
         if (!buffers[b].contains("byteLength")) fail(GLTF_INVALID, at("buffers", b) + ".byteLength is missing");
         if (buffers[b].contains("uri") && !is_meshopt_fallback(buffers[b])) {
             const std::string uri = buffers[b]["uri"].get<std::string>();
-            if (!is_data_uri(uri)) {
+            if (is_data_uri(uri)) {
+                require_base64_data_uri(at("buffers", b), uri);
+            } else {
                 const std::string full = external_file_of(at("buffers", b), uri, opt, dir);
                 const uint64_t size = require_regular_file(full, at("buffers", b), uri);
                 uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
@@ -771,9 +783,8 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
             if (has_ext(views[v], kMeshopt)) fail(GLTF_INVALID, path + " is stored in a meshopt-compressed bufferView");
         } else if (images[i].contains("uri")) {
             const std::string uri = images[i]["uri"].get<std::string>();
-            if (!is_data_uri(uri)) {
-                require_regular_file(external_file_of(path, uri, opt, dir), path, uri);
-            }
+            if (is_data_uri(uri)) require_base64_data_uri(path, uri);
+            else require_regular_file(external_file_of(path, uri, opt, dir), path, uri);
         }
     }
 }
