@@ -274,7 +274,10 @@ test('--depfile: OUT: IN, its referenced files and the config, Make-escaped; non
   assert.equal(colon.status, 0, describeRun(colon));
   assert.equal(fs.readFileSync(path.join(dir, 'o.d'), 'utf8'), 'o\\:1.glb: in\\:put.glb a\\:b.toml\n');
   fs.writeFileSync(path.join(dir, 'Makefile'), 'include o.d\no\\:1.glb:\n\t@echo "[$@] [$^]"\n');
-  const make = spawnSync('make', ['-B', '-n'], { cwd: dir, encoding: 'utf8' });
+  // a make of its own: under `make test` the outer make's MAKELEVEL/MAKEFLAGS would make it print directories
+  const env = { ...process.env };
+  for (const k of ['MAKELEVEL', 'MAKEFLAGS', 'MFLAGS', 'MAKEOVERRIDES']) delete env[k];
+  const make = spawnSync('make', ['-B', '-n', '--no-print-directory'], { cwd: dir, encoding: 'utf8', env });
   assert.equal(make.status, 0, make.stderr);
   assert.equal(make.stdout, 'echo "[o:1.glb] [in:put.glb a:b.toml]"\n');
   // a name ending in a backslash would be a line continuation: refused, like a line break (exit 1, nothing written)
