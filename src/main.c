@@ -1175,9 +1175,6 @@ static int set_once(const char **slot, const char *flag, const char *value)
     return LP_OK;
 }
 
-/* Reads the command line: the command, its operands, the tool's own flags,
- * and the configuration (defaults, then --config FILE, then config flags in
- * the order given). */
 /* Does option `a` take the next argument as its value? */
 static int flag_takes_value(const char *a)
 {
@@ -1201,6 +1198,9 @@ static const char *inapplicable_flag(int argc, char **argv, const char *const *a
     return NULL;
 }
 
+/* Reads the command line: the command, its operands, the tool's own flags,
+ * and the configuration (defaults, then --config FILE, then config flags in
+ * the order given). */
 static int parse(int argc, char **argv, cli *c)
 {
     memset(c, 0, sizeof *c);
@@ -1304,7 +1304,8 @@ int main(int argc, char **argv)
         if (c.operand_count != 1 || !c.output) return usage_error("batch needs SRC_DIR and -o OUT_DIR");
         return cmd_batch(&c);
     }
-    /* the commands that take operands only (the main job and batch take -o) */
+    /* the commands that take operands only (-o is the main job's and batch's:
+     * refused with the other options a command does not use) */
 #define LOADING_FLAGS "--quiet", "-q", "--allow-external-uris"
     static const char *const kReadOnly[] = {LOADING_FLAGS, NULL};
     static const char *const kConvert[] = {LOADING_FLAGS, "--force", "--draco", "--config", NULL};
@@ -1325,12 +1326,6 @@ int main(int argc, char **argv)
     };
     for (size_t k = 0; k < sizeof kCommands / sizeof kCommands[0]; ++k) {
         if (strcmp(c.command, kCommands[k].name) != 0) continue;
-        if (c.output) {
-            char msg[160];
-            snprintf(msg, sizeof msg, "-o belongs to the main job (lodpipe IN -o OUT) and batch, not to %s",
-                     kCommands[k].name);
-            return usage_error(msg);
-        }
         const char *unused = inapplicable_flag(argc, argv, kCommands[k].flags);
         if (unused) {
             char msg[300];
