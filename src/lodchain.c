@@ -11,6 +11,7 @@
 #include "accessor.h"
 #include "jsonw.h"
 #include "measure.h"
+#include "sha256.h"
 
 static void warn(lodchain_summary *out, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void warn(lodchain_summary *out, const char *fmt, ...)
@@ -910,24 +911,16 @@ int lodchain_mesh_triangles(const scene *s, uint32_t m, const weld_result *w, co
     return LP_OK;
 }
 
-/* FNV-1a over LOD0's positions moved by a target. */
-static uint64_t positions_hash(const measure_mesh *a)
-{
-    uint64_t h = 14695981039346656037ull;
-    const unsigned char *bytes = (const unsigned char *)a->positions;
-    for (size_t i = 0; i < 3 * (size_t)a->vertex_count * sizeof *a->positions; ++i) h = (h ^ bytes[i]) * 1099511628211ull;
-    return h;
-}
-
 /* The first target before t that moves LOD0 exactly as t does (a, its moved
- * mesh), or t; records t's hash in hashes[t]. A hash match is confirmed by
- * moving LOD0 by the earlier target again and comparing the bytes. */
-static uint32_t same_morph(const scene *s, uint32_t m, const weld_result *w, uint64_t *hashes, uint32_t t,
-                           const measure_mesh *a, lp_error *err)
+ * mesh), or t; records the digest of t's moved positions in digests[t]. A
+ * digest match is confirmed by moving LOD0 by the earlier target again and
+ * comparing the bytes. */
+static uint32_t same_morph(const scene *s, uint32_t m, const weld_result *w, uint8_t (*digests)[SHA256_BYTES],
+                           uint32_t t, const measure_mesh *a, lp_error *err)
 {
-    hashes[t] = positions_hash(a);
+    sha256_bytes(a->positions, 3 * (size_t)a->vertex_count * sizeof *a->positions, digests[t]);
     for (uint32_t u = 0; u < t; ++u) {
-        if (hashes[u] != hashes[t]) continue;
+        if (memcmp(digests[u], digests[t], SHA256_BYTES) != 0) continue;
         float *up = NULL;
         uint32_t *ut = NULL;
         measure_mesh other;
@@ -957,16 +950,16 @@ static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, cons
     const double spacing = r->diagonal / 400.0;
     /* targets that move LOD0 the same way (one accessor shared by thousands
      * of targets, say) have the same errors: each is measured once, found by
-     * a hash of its moved positions and confirmed byte for byte */
-    uint64_t *hashes = calloc(targets, sizeof *hashes);
-    if (!hashes) return lp_fail(err, LP_INVALID, "out of memory");
+     * a digest of its moved positions and confirmed byte for byte */
+    uint8_t (*digests)[SHA256_BYTES] = calloc(targets, sizeof *digests);
+    if (!digests) return lp_fail(err, LP_INVALID, "out of memory");
     int rc = LP_OK;
     for (uint32_t t = 0; t < targets && !rc; ++t) {
         float *bp = NULL, *lp = NULL;
         uint32_t *bt = NULL, *lt = NULL;
         measure_mesh a, b;
         rc = lodchain_mesh_triangles(s, m, w, NULL, (int)t, &bp, &bt, &a, err);
-        const uint32_t same = rc ? t : same_morph(s, m, w, hashes, t, &a, err);
+        const uint32_t same = rc ? t : same_morph(s, m, w, digests, t, &a, err);
         if (same < t)
             for (uint32_t k = 0; k < out->level_count; ++k)
                 out->morph_errors[(size_t)k * targets + t] = out->morph_errors[(size_t)k * targets + same];
@@ -983,7 +976,7 @@ static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, cons
         free(lp);
         free(lt);
     }
-    free(hashes);
+    free(digests);
     return rc;
 }
 
