@@ -541,9 +541,10 @@ static int still_cached(const batch *b, job *j)
  * its new bytes with the old output, and be "cached" from then on. So before
  * the launch the batch notes the time and hashes the inputs it knows of (the
  * file itself and, from the manifest, what it referenced last time); after
- * the job, an input whose hash differs from that, or whose change time
- * (ctime, which no program can set back) is not before the launch, changed
- * while the job ran, and the file is not recorded. The clock is the coarse
+ * the job, an input whose hash differs from that, or, for an input not hashed
+ * before, whose change time (ctime, which no program can set back) is not
+ * before the launch, changed while the job ran, and the file is not recorded
+ * (changed_input). The clock is the coarse
  * one the kernel stamps files with, read before the hashing, so any change
  * after it is seen; a change in the same tick just before it costs only a
  * rebuild. */
