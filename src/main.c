@@ -713,6 +713,44 @@ static int draco_encode_all(scene *s, const draco_job *jobs, uint32_t count, con
     return rc;
 }
 
+/* Why a simplified mesh kept no level (the main job's closing warning). */
+typedef enum no_level_reason { NO_LEVEL_FLAT, NO_LEVEL_DANGLING, NO_LEVEL_SMALL, NO_LEVEL_REASONS } no_level_reason;
+
+/* A mesh with no extent has only zero-area triangles too: that is the reason
+ * its load warning gives, so it comes first. */
+static no_level_reason no_level_reason_of(const weld_result *w, const simplify_result *r)
+{
+    if (!(r->diagonal > 0)) return NO_LEVEL_FLAT;
+    return w->stats.degenerate_dangling ? NO_LEVEL_DANGLING : NO_LEVEL_SMALL;
+}
+
+/* The warning of a run that simplified meshes but kept no level of any: the
+ * output is then the input rewritten, and silence would read as LOD work
+ * done. Names the reason most of those meshes share (a tie: the first in
+ * no_level_reason's order); the first two also have a warning per mesh. */
+static void say_no_level_kept(const char *in, uint32_t simplified, const uint32_t count[NO_LEVEL_REASONS],
+                              double min_reduction)
+{
+    no_level_reason top = NO_LEVEL_FLAT;
+    for (int k = 1; k < NO_LEVEL_REASONS; ++k)
+        if (count[k] > count[top]) top = (no_level_reason)k;
+    char reason[96];
+    if (top == NO_LEVEL_FLAT)
+        snprintf(reason, sizeof reason, "no extent (bounding-box diagonal 0)");
+    else if (top == NO_LEVEL_DANGLING)
+        snprintf(reason, sizeof reason, "zero-area triangles that may lie off the surface");
+    else
+        snprintf(reason, sizeof reason, "no level removed %g %% of its triangles, lod.min_reduction",
+                 100.0 * min_reduction);
+    char share[48];
+    if (count[top] == simplified)
+        snprintf(share, sizeof share, "%u mesh%s", simplified, simplified == 1 ? "" : "es");
+    else
+        snprintf(share, sizeof share, "%u of %u meshes", count[top], simplified);
+    lp_say("%s: warning: no mesh kept a LOD level; the output has no new MSFT_lod chain (%s: %s)", in, share,
+           reason);
+}
+
 /* The main job: every mesh of the default scene through the certified ladder
  * into an MSFT_lod chain, the document written to OUT all at once. */
 static int cmd_lod(const cli *c)
@@ -748,7 +786,7 @@ static int cmd_lod(const cli *c)
     jsonw_raw(&j, ",\"meshes\":[");
     int first = 1;
     lp_error err = {0, ""};
-    uint32_t scene_meshes = 0;
+    uint32_t scene_meshes = 0, simplified = 0, kept_any = 0, no_level[NO_LEVEL_REASONS] = {0};
     for (uint32_t m = 0; m < s.mesh_count; ++m) scene_meshes += s.meshes[m].instance_count && s.meshes[m].triangle_count;
     if (!scene_meshes && !c->quiet)
         lp_say("%s: warning: the default scene uses no mesh with triangles; nothing to simplify", in);
@@ -793,6 +831,11 @@ static int cmd_lod(const cli *c)
         chain.added_error = draco ? plan.added_error : NULL;
         chain.keep_vertex_order = draco;
         if (!rc) rc = lodchain_write(&s, m, &w, &r, &chain, &sum, &err);
+        if (!rc) {
+            simplified++;
+            if (sum.level_count) kept_any++;
+            else no_level[no_level_reason_of(&w, &r)]++;
+        }
         if (!rc && draco) { /* encoded once every chain is written (draco_encode_all) */
             draco_jobs[draco_job_count] = (draco_job){m, plan, sum};
             draco_jobs[draco_job_count++].chain.morph_errors = NULL;
@@ -864,6 +907,7 @@ static int cmd_lod(const cli *c)
     if (c->depfile) rc = depfile_of(c, in, out, s.doc, &depfile);
     if (!rc) rc = write_document(c, in, s.doc, out, depfile, &j);
     free(depfile);
+    if (!rc && simplified && !kept_any && !c->quiet) say_no_level_kept(in, simplified, no_level, chain.min_reduction);
     jsonw_raw(&j, "}\n");
     if (!rc && c->json) fputs(j.failed ? "{}\n" : j.text, stdout);
     jsonw_free(&j);

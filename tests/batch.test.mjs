@@ -165,7 +165,8 @@ test('batch: a corrupt file is reported in one line, the others complete, exit 5
   assert.deepEqual(byStatus.failed, bad);
   assert.deepEqual(byStatus.built, files);
   assert.equal(summary.failed, 2);
-  const lines = run.stderr.split('\n').filter((l) => l);
+  // the built files keep no level: each warns so (a warning line, not a failure)
+  const lines = run.stderr.split('\n').filter((l) => l && !l.includes(': warning: '));
   assert.equal(lines.length, 2, `one line per failed file:\n${run.stderr}`);
   for (const f of bad) {
     const line = lines.find((l) => l.startsWith(`lodpipe: ${path.join(src, f)}: `));
@@ -188,6 +189,34 @@ test('batch: a corrupt file is reported in one line, the others complete, exit 5
   fs.rmSync(path.join(src, 'bad'), { recursive: true });
   const fixed = batch(src, out);
   assert.equal(fixed.run.status, 0, describeRun(fixed.run));
+});
+
+// A file whose meshes keep no level is not a failure: built (exit 0, no "error"), its job's warning relayed,
+// as in a single-file run.
+test('batch: a file where no mesh keeps a level is built, with its warning; the batch exits 0', { skip }, (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out');
+  fs.mkdirSync(src);
+  const data = Buffer.alloc(44);
+  [0, 0, 0, 1, 0, 0, 0, 1, 0].forEach((v, i) => data.writeFloatLE(v, 4 * i));
+  [0, 1, 2].forEach((v, i) => data.writeUInt16LE(v, 36 + 2 * i));
+  const input = path.join(src, 'tri.gltf');
+  fs.writeFileSync(input, JSON.stringify({
+    asset: { version: '2.0' }, scene: 0, scenes: [{ nodes: [0] }], nodes: [{ mesh: 0 }],
+    meshes: [{ primitives: [{ attributes: { POSITION: 0 }, indices: 1 }] }],
+    accessors: [{ bufferView: 0, componentType: 5126, count: 3, type: 'VEC3', min: [0, 0, 0], max: [1, 1, 0] },
+      { bufferView: 1, componentType: 5123, count: 3, type: 'SCALAR' }],
+    bufferViews: [{ buffer: 0, byteLength: 36 }, { buffer: 0, byteOffset: 36, byteLength: 6 }],
+    buffers: [{ byteLength: 44, uri: `data:application/octet-stream;base64,${data.toString('base64')}` }],
+  }));
+  const { run, summary, byStatus } = batch(src, out);
+  assert.equal(run.status, 0, describeRun(run));
+  assert.deepEqual(byStatus.built, ['tri.gltf']);
+  assert.deepEqual([summary.failed, summary.meshes, summary.triangles_out], [0, 1, 0]);
+  assert.equal(summary.results[0].error, undefined, 'no error for a built file');
+  assert.deepEqual(run.stderr.split('\n').filter((l) => l), [`lodpipe: ${input}: warning: no mesh kept a LOD level; ` +
+    'the output has no new MSFT_lod chain (1 mesh: no level removed 10 % of its triangles, lod.min_reduction)'], describeRun(run));
+  assert.ok(fs.existsSync(path.join(out, 'tri.gltf')), 'the output is written');
 });
 
 test('batch cache: a changed .bin, configuration or output rebuilds; --force rebuilds all; mtime alone does not', { skip }, (t) => {

@@ -471,6 +471,50 @@ function cowVariant(dir, name, edit) {
   return file;
 }
 
+/** A bumpy n x n grid (2 n^2 triangles) that the default ladder simplifies to a few triangles. */
+function bumpyGrid(n) {
+  const positions = [], indices = [];
+  for (let y = 0; y <= n; y++) for (let x = 0; x <= n; x++) positions.push(x / n, y / n, 0.02 * Math.sin((3 * x) / n) * Math.cos((2 * y) / n));
+  for (let y = 0; y < n; y++) {
+    for (let x = 0; x < n; x++) {
+      const a = y * (n + 1) + x, c = a + n + 1;
+      indices.push(a, a + 1, c + 1, a, c + 1, c);
+    }
+  }
+  return { positions, indices };
+}
+const ONE_TRIANGLE = { positions: [0, 0, 0, 1, 0, 0, 0, 1, 0], indices: [0, 1, 2] };
+
+/**
+ * A .gltf at dir/name (one data: URI buffer) whose default scene has one root node per entry of meshes:
+ * { positions, indices, mesh, node }, where mesh and node are JSON members merged into the mesh and its node.
+ */
+function meshesFile(dir, name, meshes) {
+  const j = { asset: { version: '2.0' }, scene: 0, scenes: [{ nodes: [] }], nodes: [], meshes: [], accessors: [], bufferViews: [], buffers: [] };
+  const chunks = [];
+  let offset = 0;
+  const view = (bytes, target) => {
+    chunks.push(Buffer.from(bytes.buffer, 0, bytes.byteLength), Buffer.alloc((4 - (bytes.byteLength % 4)) % 4));
+    const v = j.bufferViews.push({ buffer: 0, byteOffset: offset, byteLength: bytes.byteLength, target }) - 1;
+    offset += bytes.byteLength + ((4 - (bytes.byteLength % 4)) % 4);
+    return v;
+  };
+  for (const m of meshes) {
+    const pos = new Float32Array(m.positions);
+    const min = [0, 1, 2].map((c) => Math.min(...pos.filter((_, i) => i % 3 === c)));
+    const max = [0, 1, 2].map((c) => Math.max(...pos.filter((_, i) => i % 3 === c)));
+    const position = j.accessors.push({ bufferView: view(pos, 34962), componentType: 5126, count: pos.length / 3, type: 'VEC3', min, max }) - 1;
+    const indices = j.accessors.push({ bufferView: view(new Uint16Array(m.indices), 34963), componentType: 5123, count: m.indices.length, type: 'SCALAR' }) - 1;
+    const mesh = j.meshes.push({ ...(m.mesh || {}), primitives: [{ attributes: { POSITION: position }, indices }] }) - 1;
+    j.scenes[0].nodes.push(j.nodes.push({ ...(m.node || {}), mesh }) - 1);
+  }
+  const data = Buffer.concat(chunks);
+  j.buffers.push({ byteLength: data.length, uri: `data:application/octet-stream;base64,${data.toString('base64')}` });
+  const file = path.join(dir, name);
+  fs.writeFileSync(file, JSON.stringify(j));
+  return file;
+}
+
 test('EXT_mesh_gpu_instancing: LOD nodes instanced like their node, distances for the largest instance', { skip: skipRuns }, async (t) => {
   const plainIn = corpusPath('scans/cow.glb');
   const input = cowVariant(tempDir(t), 'cow_instanced.gltf', (j, node, addAccessor) => {
@@ -504,6 +548,34 @@ test('a default scene without triangle meshes: written, with a warning that noth
   assert.match(r.stderr, /warning: the default scene uses no mesh with triangles; nothing to simplify/);
   const quiet = runLodpipe([input, '-o', path.join(dir, 'out2.glb'), '-q']);
   assert.equal(quiet.stderr, '', 'quiet');
+});
+
+// A run in which no mesh keeps a level writes the input back without a chain; a build log should say so
+// rather than stay silent. It is not an error (exit 0, and batch mode counts the file as built).
+test('no mesh keeps a level: exit 0 and one warning naming the input and the main reason', { skip: skipRuns }, (t) => {
+  const dir = tempDir(t);
+  const noLevel = (r) => r.stderr.split('\n').filter((l) => l.includes('no mesh kept a LOD level'));
+  const tri = meshesFile(dir, 'tri.gltf', [ONE_TRIANGLE]);
+  const r = runLodpipe([tri, '-o', path.join(dir, 'tri_out.glb')]);
+  assert.equal(r.status, 0, describeRun(r));
+  assert.ok(fs.existsSync(path.join(dir, 'tri_out.glb')), 'the output is written');
+  assert.deepEqual(noLevel(r), [`lodpipe: ${tri}: warning: no mesh kept a LOD level; the output has no new MSFT_lod chain ` +
+    '(1 mesh: no level removed 10 % of its triangles, lod.min_reduction)'], describeRun(r));
+  const quiet = runLodpipe([tri, '-o', path.join(dir, 'tri_quiet.glb'), '--quiet']);
+  assert.deepEqual([quiet.status, quiet.stderr], [0, ''], describeRun(quiet));
+  // the reason most meshes share, with their share: two single triangles and a mesh with no extent
+  const point = { positions: [1, 1, 1, 1, 1, 1, 1, 1, 1], indices: [0, 1, 2] };
+  const three = meshesFile(dir, 'three.gltf', [ONE_TRIANGLE, point, ONE_TRIANGLE]);
+  const r3 = runLodpipe([three, '-o', path.join(dir, 'three_out.glb')]);
+  assert.equal(r3.status, 0, describeRun(r3));
+  assert.deepEqual(noLevel(r3).map((l) => l.replace(/^.*?\(/, '(')),
+    ['(2 of 3 meshes: no level removed 10 % of its triangles, lod.min_reduction)'], describeRun(r3));
+  // one mesh that keeps a level is enough: no such warning
+  const mixed = meshesFile(dir, 'mixed.gltf', [ONE_TRIANGLE, bumpyGrid(10)]);
+  const rm = runLodpipe([mixed, '-o', path.join(dir, 'mixed_out.glb'), '--json']);
+  assert.equal(rm.status, 0, describeRun(rm));
+  assert.ok(JSON.parse(rm.stdout).meshes[1].levels.length > 0, 'precondition: the grid keeps a level');
+  assert.deepEqual(noLevel(rm), [], describeRun(rm));
 });
 
 // A level with placed vertices has a POSITION of its own but shares its other accessors with LOD0, and
