@@ -377,25 +377,40 @@ static int64_t level_positions(gltf_doc *doc, const scene_primitive *pr, uint32_
     return a;
 }
 
-/* "<base>_LOD<number>", the name of a level's mesh or node (malloc'd; NULL
- * when out of memory). */
-static char *lod_name(const char *base, uint32_t number)
+/* The name of an object lodpipe adds for glTF object `kind`[index] (malloc'd;
+ * NULL when out of memory): "<name><suffix>", or "<kind><index><suffix>" when
+ * the object has no name (or ""), so that what the user sees in a client
+ * leads back to the object it belongs to, as `simplify`'s mesh<K>_level<L>.obj
+ * does; a bare "_LOD1" would name nothing. lodpipe only appends objects, so
+ * the index is the same in the output. */
+static char *derived_name(const char *name, const char *kind, uint32_t index, const char *suffix)
+{
+    char unnamed[32];
+    if (!name[0]) {
+        snprintf(unnamed, sizeof unnamed, "%s%u", kind, index);
+        name = unnamed;
+    }
+    size_t name_len = strlen(name), suffix_len = strlen(suffix);
+    char *out = malloc(name_len + suffix_len + 1);
+    if (!out) return NULL;
+    memcpy(out, name, name_len);
+    memcpy(out + name_len, suffix, suffix_len + 1);
+    return out;
+}
+
+/* "<name>_LOD<number>" (derived_name), the name of a level's mesh or node. */
+static char *lod_name(const char *name, const char *kind, uint32_t index, uint32_t number)
 {
     char suffix[32];
-    int suffix_len = snprintf(suffix, sizeof suffix, "_LOD%u", number);
-    size_t base_len = strlen(base);
-    char *name = malloc(base_len + (size_t)suffix_len + 1);
-    if (!name) return NULL;
-    memcpy(name, base, base_len);
-    memcpy(name + base_len, suffix, (size_t)suffix_len + 1);
-    return name;
+    snprintf(suffix, sizeof suffix, "_LOD%u", number);
+    return derived_name(name, kind, index, suffix);
 }
 
 static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, const simplify_level *level,
                                 uint32_t number, uint32_t *const *new_of_old, lp_error *err)
 {
     const scene_mesh *mesh = &s->meshes[m];
-    char *name = lod_name(mesh->name, number);
+    char *name = lod_name(mesh->name, "mesh", m, number);
     if (!name) return lp_fail(err, LP_INVALID, "out of memory"), -1;
     jsonw j = {0};
     jsonw_raw(&j, "{\"name\":");
@@ -600,18 +615,12 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
     gltf_get_node(s->doc, n, &g);
     if (!lost_in_swap(s->doc, n, &g)) return n;
     jsonw j = {0};
-    const char *base = s->nodes[n].name;
+    char *name = derived_name(s->nodes[n].name, "node", n, "_mesh");
     jsonw_raw(&j, "{\"name\":");
-    size_t len = strlen(base);
-    char *name = malloc(len + 8);
-    if (name) {
-        memcpy(name, base, len);
-        memcpy(name + len, "_mesh", 6);
-        jsonw_string(&j, name);
-        free(name);
-    }
+    if (name) jsonw_string(&j, name);
+    free(name);
     jsonw_printf(&j, ",\"mesh\":%lld}", (long long)s->nodes[n].mesh);
-    int64_t carrier = j.failed ? -1 : gltf_append_json(s->doc, "nodes", j.text);
+    int64_t carrier = !name || j.failed ? -1 : gltf_append_json(s->doc, "nodes", j.text);
     jsonw_free(&j);
     if (carrier < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
     char from[96], to[96], value[32];
@@ -649,7 +658,7 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
 static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64_t lod_mesh, uint32_t number,
                               lp_error *err)
 {
-    char *name = lod_name(s->nodes[named].name, number);
+    char *name = lod_name(s->nodes[named].name, "node", named, number);
     if (!name) return lp_fail(err, LP_INVALID, "out of memory"), -1;
     jsonw j = {0};
     jsonw_raw(&j, "{\"name\":");

@@ -487,9 +487,10 @@ const ONE_TRIANGLE = { positions: [0, 0, 0, 1, 0, 0, 0, 1, 0], indices: [0, 1, 2
 
 /**
  * A .gltf at dir/name (one data: URI buffer) whose default scene has one root node per entry of meshes:
- * { positions, indices, mesh, node }, where mesh and node are JSON members merged into the mesh and its node.
+ * { positions, indices, mesh, node }, where mesh and node are JSON members merged into the mesh and its node;
+ * edit(j) may change the JSON last.
  */
-function meshesFile(dir, name, meshes) {
+function meshesFile(dir, name, meshes, edit = () => {}) {
   const j = { asset: { version: '2.0' }, scene: 0, scenes: [{ nodes: [] }], nodes: [], meshes: [], accessors: [], bufferViews: [], buffers: [] };
   const chunks = [];
   let offset = 0;
@@ -510,6 +511,7 @@ function meshesFile(dir, name, meshes) {
   }
   const data = Buffer.concat(chunks);
   j.buffers.push({ byteLength: data.length, uri: `data:application/octet-stream;base64,${data.toString('base64')}` });
+  edit(j);
   const file = path.join(dir, name);
   fs.writeFileSync(file, JSON.stringify(j));
   return file;
@@ -576,6 +578,36 @@ test('no mesh keeps a level: exit 0 and one warning naming the input and the mai
   assert.equal(rm.status, 0, describeRun(rm));
   assert.ok(JSON.parse(rm.stdout).meshes[1].levels.length > 0, 'precondition: the grid keeps a level');
   assert.deepEqual(noLevel(rm), [], describeRun(rm));
+});
+
+// Objects lodpipe adds are named after the object they belong to; an unnamed (or "") mesh or node gives its
+// index instead (mesh<K>, node<N>, as `simplify` names its files), not a bare "_LOD1" or "_mesh". The
+// unnamed originals stay unnamed.
+test('unnamed meshes and nodes: levels named mesh<K>_LOD<n> and node<N>_LOD<n>, the carrier node<N>_mesh', { skip: skipRuns }, (t) => {
+  const dir = tempDir(t);
+  const input = meshesFile(dir, 'unnamed.gltf', [
+    ONE_TRIANGLE,
+    bumpyGrid(10),
+    { ...bumpyGrid(10), mesh: { name: 'hill' }, node: { name: 'Hill' } },
+    { ...bumpyGrid(10), mesh: { name: '' }, node: { name: '', camera: 0 } },
+  ], (j) => { j.cameras = [{ type: 'orthographic', orthographic: { xmag: 1, ymag: 1, znear: 0.1, zfar: 10 } }]; });
+  const run = mainJob(input, '.gltf', [], {});
+  assert.deepEqual(runFatal(run), [], describeRun(run.r));
+  const j = readRaw(run.out).json;
+  const named = (node) => {
+    const n = j.nodes[node];
+    const chain = n.extensions?.MSFT_lod ? n : j.nodes[n.children?.at(-1)];
+    const ids = chain?.extensions?.MSFT_lod?.ids || [];
+    return { node: n.name, carrier: chain === n ? null : chain.name, lodNodes: ids.map((id) => j.nodes[id].name), lodMeshes: ids.map((id) => j.meshes[j.nodes[id].mesh].name) };
+  };
+  const lods = (base, k) => [...Array(k)].map((_, i) => `${base}_LOD${i + 1}`);
+  const levels = (m) => run.summary.meshes.find((x) => x.mesh === m).levels.length;
+  assert.ok(levels(1) > 0 && levels(2) === levels(1) && levels(3) === levels(1), 'precondition: the grids keep levels');
+  const k = levels(1);
+  assert.deepEqual(named(1), { node: undefined, carrier: null, lodNodes: lods('node1', k), lodMeshes: lods('mesh1', k) });
+  assert.deepEqual(named(2), { node: 'Hill', carrier: null, lodNodes: lods('Hill', k), lodMeshes: lods('hill', k) });
+  assert.deepEqual(named(3), { node: '', carrier: 'node3_mesh', lodNodes: lods('node3', k), lodMeshes: lods('mesh3', k) });
+  assert.deepEqual([j.meshes[1].name, j.meshes[3].name], [undefined, ''], 'the originals keep their (lack of) names');
 });
 
 // A level with placed vertices has a POSITION of its own but shares its other accessors with LOD0, and
