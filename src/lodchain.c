@@ -580,14 +580,21 @@ static const char *const kLodNodeCopies[] = {"matrix", "translation", "rotation"
                                              NULL};
 
 /* 1 when a client that shows a LOD node in node n's place would lose part of
- * n: its children (clients replace a node together with them), its camera, or
- * an extension the LOD node does not copy (a KHR_lights_punctual light, one
- * lodpipe does not know); MSFT_lod, which the chain writes, aside. */
+ * n: its children (clients replace a node together with them), its camera,
+ * its extras (game metadata such as {"collider": true}: copies on every LOD
+ * node would multiply what the user wrote once), or an extension the LOD node
+ * does not copy (a KHR_lights_punctual light, one lodpipe does not know);
+ * MSFT_lod, which the chain writes, aside. Empty extras ({}) hold nothing. */
 static int lost_in_swap(const gltf_doc *doc, uint32_t n, const gltf_node *g)
 {
     if (g->child_count || g->camera >= 0) return 1;
-    size_t copied = 0;
     char pointer[96];
+    snprintf(pointer, sizeof pointer, "/nodes/%u/extras", n);
+    char *extras = gltf_get_json(doc, pointer);
+    const int has_extras = extras && strcmp(extras, "{}") != 0;
+    free(extras);
+    if (has_extras) return 1;
+    size_t copied = 0;
     for (const char *const *key = kLodNodeCopies; *key; ++key) {
         if (strncmp(*key, "extensions/", 11) != 0) continue;
         snprintf(pointer, sizeof pointer, "/nodes/%u/%s", n, *key);
@@ -603,9 +610,9 @@ static int lost_in_swap(const gltf_doc *doc, uint32_t n, const gltf_node *g)
 }
 
 /* A node that a LOD node cannot stand in for without losing part of it
- * (lost_in_swap: children, a camera, a light, ...) cannot simply carry
+ * (lost_in_swap: children, a camera, extras, a light, ...) cannot simply carry
  * MSFT_lod: that part would vanish at coarse levels. Such a node keeps its
- * transform, children, camera and extensions and hands its mesh (with skin,
+ * transform, children, camera, extras and extensions and hands its mesh (with skin,
  * morph weights and EXT_mesh_gpu_instancing, and animations of those weights)
  * to a new child with the identity transform, which carries the chain.
  * Returns the node that carries the mesh now, or -1. */
@@ -774,8 +781,7 @@ static int instance_max_scale(const scene *s, uint32_t node, double *scale, lp_e
 /* MSFT_lod and the switching metadata on document node `node`, whose world
  * transform is scene node `placed`'s. */
 static int annotate_node(scene *s, int64_t node_id, uint32_t placed, uint32_t m, const lodchain_summary *chain,
-                         const int64_t *lod_nodes, const lodchain_options *o, double diagonal, lodchain_summary *out,
-                         lp_error *err)
+                         const int64_t *lod_nodes, const lodchain_options *o, double diagonal, lp_error *err)
 {
     const uint32_t node = (uint32_t)node_id;
     double instance_scale;
@@ -844,14 +850,10 @@ static int annotate_node(scene *s, int64_t node_id, uint32_t placed, uint32_t m,
     jsonw_raw(&meta, "]}");
     if (ids.failed || coverage.failed || meta.failed) rc = lp_fail(err, LP_INVALID, "out of memory");
     if (!rc) rc = set_json(s->doc, err, ids.text, "/nodes/%u/extensions/MSFT_lod", node);
-    if (!rc) {
-        char pointer[96];
-        snprintf(pointer, sizeof pointer, "/nodes/%u/extras/MSFT_screencoverage", node);
-        if (gltf_set_json(s->doc, pointer, coverage.text) != 0 ||
-            (snprintf(pointer, sizeof pointer, "/nodes/%u/extras/lodpipe", node),
-             gltf_set_json(s->doc, pointer, meta.text) != 0))
-            warn(out, "nodes[%u].extras is not an object; switching metadata not written", node);
-    }
+    /* a node with extras of its own hands the chain to a carrier
+     * (lost_in_swap), so this node's extras are absent or {} */
+    if (!rc) rc = set_json(s->doc, err, coverage.text, "/nodes/%u/extras/MSFT_screencoverage", node);
+    if (!rc) rc = set_json(s->doc, err, meta.text, "/nodes/%u/extras/lodpipe", node);
     jsonw_free(&ids);
     jsonw_free(&coverage);
     jsonw_free(&meta);
@@ -1064,7 +1066,7 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
             if (lod_nodes[k] < 0) rc = err->code ? err->code : LP_INVALID;
         }
         if (!rc) rc = follow_animations(s, carrier, lod_nodes, out->level_count, err);
-        if (!rc) rc = annotate_node(s, carrier, n, m, out, lod_nodes, o, r->diagonal, out, err);
+        if (!rc) rc = annotate_node(s, carrier, n, m, out, lod_nodes, o, r->diagonal, err);
         out->nodes++;
     }
     if (!rc && out->nodes) gltf_use_extension(s->doc, "MSFT_lod", 0);

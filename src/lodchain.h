@@ -16,7 +16,10 @@
  *   and lines primitives are copied as they are;
  * - every node that uses the mesh gets extensions.MSFT_lod.ids naming one new
  *   node per level (same transform, skin and morph weights, not in any scene),
- *   extras.MSFT_screencoverage and extras.lodpipe (README: "Output format");
+ *   extras.MSFT_screencoverage and extras.lodpipe (README: "Output format"),
+ *   or, when a LOD node in its place would lose part of it (children, a
+ *   camera, extras, an extension it does not copy), hands its mesh to a new
+ *   child, the carrier, that gets them instead;
  * - morph targets: the bound holds for the base shape; for each target the
  *   level's distance to LOD0 with that target applied at weight 1 is MEASURED
  *   (dense sampling, measure.h) and written beside the bound.

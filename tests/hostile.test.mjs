@@ -905,18 +905,21 @@ test('warnings: the rest counted and pointed to, inspect lists them all', { skip
     assert.equal(listed.length, 8 + Number(more[1]), describeRun(inspect));
     assert.deepEqual(listed.slice(0, 8), lines.slice(0, 8), 'the same first 8');
   });
-  await t.test('six nodes of one mesh with non-object extras: 4 warnings and "2 more warnings like these"', (st) => {
+  await t.test('six nodes of one mesh that already have MSFT_lod: 4 warnings and "2 more warnings like these"', (st) => {
     const dir = tempDir(st);
     const { json, bin } = parseGlb(fs.readFileSync(DUCK));
     const mesh = json.nodes.find((n) => n.mesh !== undefined).mesh;
-    const added = [...Array(6)].map((_, k) => json.nodes.push({ name: `duck ${k}`, mesh, translation: [k * 300, 0, 0], extras: `tag${k}` }) - 1);
+    const level = json.nodes.push({ name: 'a level' }) - 1;
+    const added = [...Array(6)].map((_, k) => json.nodes.push({ name: `duck ${k}`, mesh, translation: [k * 300, 0, 0],
+      extensions: { MSFT_lod: { ids: [level] } } }) - 1);
     json.scenes[json.scene ?? 0].nodes.push(...added);
+    json.extensionsUsed = [...(json.extensionsUsed || []), 'MSFT_lod'];
     const input = path.join(dir, 'in.glb');
     writeGlb(input, json, bin);
     const r = runLodpipe([input, '-o', path.join(dir, 'out.glb')]);
     assert.equal(r.status, 0, describeRun(r));
     const lines = r.stderr.trim().split('\n');
-    assert.equal(lines.filter((l) => /extras is not an object; switching metadata not written/.test(l)).length, 4, describeRun(r));
+    assert.equal(lines.filter((l) => /nodes\[\d+\] already has MSFT_lod; left as it is/.test(l)).length, 4, describeRun(r));
     assert.match(r.stderr, /warning: mesh \d+: 2 more warnings like these/);
   });
 });

@@ -218,6 +218,10 @@ const SELF_CASES = [
       fx.out.json.nodes[1].children = [3];
       fx.out.json.scenes[0].nodes = [0];
     } },
+  { name: 'a node with MSFT_lod and extras its LOD nodes lack (in the input too)', expect: ['hierarchy'], match: /extras \{"collider":true/,
+    mutate: (fx) => {
+      for (const j of [fx.inp.json, fx.out.json]) j.nodes[1].extras = { collider: true, ...(j.nodes[1].extras || {}) };
+    } },
   { name: 'a node with MSFT_lod and a light its LOD nodes lack (in the input too)', expect: ['hierarchy'], match: /extension KHR_lights_punctual/,
     mutate: (fx) => {
       for (const j of [fx.inp.json, fx.out.json]) {
@@ -828,6 +832,42 @@ test('a node with a mesh and a camera, a light or an unknown extension hands its
     const ids = carrier.extensions.MSFT_lod.ids;
     assert.ok(ids.length > 0, 'a chain');
     for (const id of ids) assert.deepEqual([j.nodes[id].camera, j.nodes[id].extensions], [undefined, undefined], `LOD node ${id}`);
+  });
+});
+
+// A node's extras (game metadata: a collider flag, an id) belong to the node the user made. A LOD node in
+// its place lacks them, so they vanished at a distance; copied to every LOD node they would multiply. The
+// node keeps them and hands its mesh to a "<node>_mesh" carrier, as for a camera or a light; extras that are
+// not an object (glTF allows any value) too, and the carrier then takes the switching metadata.
+test('a node with extras keeps them and hands its mesh to a carrier; {} does not', { skip: skipRuns }, async (t) => {
+  let tagged = -1, empty = -1;
+  const input = cowVariant(tempDir(t), 'cow_extras.gltf', (j, node) => {
+    j.nodes[node].extras = { collider: true, id: 7 };
+    tagged = j.nodes.push({ name: 'tagged cow', mesh: 0, translation: [5, 0, 0], extras: 'tag' }) - 1;
+    empty = j.nodes.push({ name: 'plain cow', mesh: 0, translation: [10, 0, 0], extras: {} }) - 1;
+    j.scenes[j.scene ?? 0].nodes.push(tagged, empty);
+  });
+  const run = await checkedStructure(t, input, 'cow nodes with extras', 'the main job');
+  await t.test('the nodes keep their extras; their "<node>_mesh" children carry the chain and its metadata', () => {
+    const j = readRaw(run.out).json;
+    const jin = readRaw(input).json;
+    const root = jin.scenes[jin.scene ?? 0].nodes[0];
+    assert.doesNotMatch(run.r.stderr, /extras is not an object/, describeRun(run.r));
+    for (const [node, extras] of [[root, { collider: true, id: 7 }], [tagged, 'tag']]) {
+      const n = j.nodes[node];
+      assert.deepEqual([n.mesh, n.extensions, n.extras], [undefined, undefined, extras], `node ${node}: no mesh, no chain, its own extras`);
+      assert.equal(n.children?.length, 1, `node ${node}: one child, the carrier`);
+      const carrier = j.nodes[n.children[0]];
+      assert.equal(carrier.name, `${jin.nodes[node].name}_mesh`);
+      assert.equal(carrier.mesh, 0);
+      assert.deepEqual(Object.keys(carrier.extras).sort(), ['MSFT_screencoverage', 'lodpipe'], 'the switching metadata is on the carrier');
+      const ids = carrier.extensions.MSFT_lod.ids;
+      assert.ok(ids.length > 0, 'a chain');
+      for (const id of ids) assert.equal(j.nodes[id].extras, undefined, `LOD node ${id} has no extras`);
+    }
+    const plain = j.nodes[empty];
+    assert.equal(plain.mesh, 0, 'extras {} hold nothing to lose: the node carries its chain itself');
+    assert.ok(plain.extensions?.MSFT_lod && !plain.children, 'no carrier for {}');
   });
 });
 

@@ -45,7 +45,7 @@ export const CHAIN_ASPECTS = [
   ['summary', '--json summary: every mesh of the default scene once, levels consistent with the file'],
   ['eps', 'recorded error <= eps of the ladder level it came from'],
   ['chain', 'MSFT_lod structure: one LOD node per kept level on every instance, same transform/skin/weights, LOD meshes shared by instances, nothing else added'],
-  ['hierarchy', 'a node carrying MSFT_lod has no children, camera or extension its LOD nodes lack (a client that swaps the node would lose them)'],
+  ['hierarchy', 'a node carrying MSFT_lod has no children, camera, extras or extension its LOD nodes lack (a client that swaps the node would lose them)'],
   ['soundness', 'Hausdorff(LOD node mesh, LOD0 mesh) by the CGAL tool <= recorded error, proven'],
   ['unchanged', 'animations, skins, materials, textures, images, samplers, cameras, scenes, other nodes/meshes/accessors unchanged'],
   ['geometry', 'original meshes: same vertices and triangles (as sets of attribute tuples) after the reorder'],
@@ -755,7 +755,8 @@ function reorderBlocked(json, users, m, p) {
   return null;
 }
 
-function stripChainProps(node) {
+/** Output node `node` without what the chain adds; `inNode`, the input's, tells an input {} from no extras. */
+function stripChainProps(node, inNode) {
   const n = clone(node);
   if (n.extensions) {
     delete n.extensions.MSFT_lod;
@@ -764,7 +765,8 @@ function stripChainProps(node) {
   if (n.extras && typeof n.extras === 'object') {
     delete n.extras.MSFT_screencoverage;
     delete n.extras.lodpipe;
-    if (Object.keys(n.extras).length === 0) delete n.extras;
+    if (FOLDED_OWN_EXTRAS in n.extras) n.extras = n.extras[FOLDED_OWN_EXTRAS];
+    else if (Object.keys(n.extras).length === 0 && inNode?.extras === undefined) delete n.extras;
   }
   return n;
 }
@@ -792,12 +794,18 @@ const TRANSFORM_KEYS = ['matrix', 'translation', 'rotation', 'scale', 'skin', 'w
 const LOD_NODE_EXTENSIONS = ['EXT_mesh_gpu_instancing', 'KHR_node_visibility', 'MSFT_lod'];
 
 /**
- * What a client that shows a LOD node in node n's place would lose of n: its children, its camera and
- * every extension a LOD node does not copy, as strings ([] when nothing).
+ * What a client that shows a LOD node in node n's place would lose of n: its children, its camera, its
+ * extras (any but {} and the switching metadata the chain writes there) and every extension a LOD node
+ * does not copy, as strings ([] when nothing).
  */
 export function lostInSwap(n) {
   const lost = [];
   if ((n?.children || []).length) lost.push(`children [${n.children}]`);
+  if (n?.extras !== undefined) {
+    const own = n.extras !== null && typeof n.extras === 'object' && !Array.isArray(n.extras)
+      ? Object.keys(n.extras).filter((k) => k !== 'MSFT_screencoverage' && k !== 'lodpipe') : ['(not an object)'];
+    if (own.length) lost.push(`extras ${JSON.stringify(n.extras)}`);
+  }
   if (n?.camera !== undefined) lost.push(`camera ${n.camera}`);
   for (const e of Object.keys(n?.extensions || {})) if (!LOD_NODE_EXTENSIONS.includes(e)) lost.push(`extension ${e}`);
   return lost;
@@ -808,7 +816,7 @@ export function lostInSwap(n) {
  * light: lostInSwap) hands its mesh to a new child (the "carrier", README: Output format)
  * that carries the chain. To check the chain with the same rules as
  * everywhere else, fold each carrier back into its node in the parsed output: the node
- * gets the carrier's mesh/skin/weights, MSFT_lod and extras again, animation channels
+ * gets the carrier's mesh/skin/weights, MSFT_lod and extras (beside its own) again, animation channels
  * retargeted to the carrier point back at it, and the carrier's slot is left empty. A
  * carrier must have been added as the node's last child, with no transform, the input
  * node's mesh (and skin/weights), and the node must have lost exactly those. Returns
@@ -831,6 +839,9 @@ function retargetChannel(ch, n) {
   else ch.target.node = n;
 }
 
+/** Where foldCarriers keeps a node's own extras that are not an object (stripChainProps puts them back). */
+const FOLDED_OWN_EXTRAS = 'lodcheck: the node\'s own extras';
+
 export function foldCarriers(j, jin, nInNodes, notes) {
   const carriers = new Map();
   (j.nodes || []).forEach((n, i) => {
@@ -851,7 +862,13 @@ export function foldCarriers(j, jin, nInNodes, notes) {
     for (const k of ['mesh', 'skin', 'weights']) if (cn[k] !== undefined) n[k] = cn[k];
     n.extensions = { ...(n.extensions || {}), MSFT_lod: cn.extensions.MSFT_lod };
     if (cn.extensions.EXT_mesh_gpu_instancing) n.extensions.EXT_mesh_gpu_instancing = cn.extensions.EXT_mesh_gpu_instancing;
-    if (cn.extras) n.extras = { ...(n.extras || {}), ...cn.extras };
+    if (cn.extras) {
+      // the node's own extras stay on it (any JSON value); the chain's metadata came on the carrier
+      const own = n.extras;
+      const isObject = own !== null && typeof own === 'object' && !Array.isArray(own);
+      n.extras = { ...(isObject ? own : {}), ...cn.extras };
+      if (own !== undefined && !isObject) n.extras[FOLDED_OWN_EXTRAS] = own;
+    }
     if (n.extras?.lodpipe?.levels?.[0]?.node === c) n.extras.lodpipe.levels[0].node = i;
     for (const a of j.animations || []) for (const ch of a.channels || []) if (channelTarget(ch).node === c) retargetChannel(ch, i);
     j.nodes[c] = { name: cn.name };
@@ -1393,7 +1410,7 @@ export async function analyzeChain({ inFile, outFile, summary, ladder = DEFAULT_
   if (!deepEqual([...usedOut].sort(), [...(a.extensionsUsed || [])].sort())) P('unchanged', `extensionsUsed input ${JSON.stringify(a.extensionsUsed)}, output ${JSON.stringify(b.extensionsUsed)} (only MSFT_lod may be added)`);
   for (let i = 0; i < nInNodes; i++) {
     const had = jin.nodes[i]?.extensions?.MSFT_lod; // a chain the input had is left as it is
-    const d = diffJson(a.nodes[i], had ? b.nodes?.[i] : stripChainProps(b.nodes?.[i]), `/nodes/${i}`, []);
+    const d = diffJson(a.nodes[i], had ? b.nodes?.[i] : stripChainProps(b.nodes?.[i], a.nodes[i]), `/nodes/${i}`, []);
     problems.unchanged.push(...d.map((x) => `${x} (besides MSFT_lod and extras.MSFT_screencoverage/lodpipe)`));
   }
   for (let i = 0; i < nInMeshes; i++) problems.unchanged.push(...diffJson(a.meshes[i], b.meshes?.[i], `/meshes/${i}`, []));
