@@ -80,7 +80,7 @@ test('check: a file without LOD chains says so and exits 0; a bad file is exit 2
   const plain = runLodpipe(['check', scene]);
   assert.equal(plain.status, 0, describeRun(plain));
   assert.match(plain.stdout, /no LOD chains/);
-  const broken = runLodpipe(['check', path.join(repoRoot, '..', 'shared', 'assets', 'invalid', 'truncated.glb')]);
+  const broken = runLodpipe(['check', corpusPath('invalid/truncated.glb')]);
   assert.equal(broken.status, 2, describeRun(broken));
 });
 
