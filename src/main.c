@@ -469,7 +469,9 @@ static void obj_vertex_lines_free(obj_vertex_lines *l)
 
 /* One level as OBJ, staged in set: the mesh's welded vertices (shared by all levels; at
  * `positions` when a level placed vertices, else the weld's) and the level's
- * faces. A vertex at the weld's position reuses its formatted line. */
+ * faces: face_wedges (a level's, the weld's dangling triangles included), or
+ * face_vertices (level 0: the weld's triangles), then the weld's dangling
+ * triangles. A vertex at the weld's position reuses its formatted line. */
 static int write_obj(output_set *set, const char *path, const weld_result *w, const obj_vertex_lines *lines, const float *positions,
                      const uint32_t *face_vertices, uint32_t face_count, const uint32_t *face_wedges)
 {
@@ -490,10 +492,13 @@ static int write_obj(output_set *set, const char *path, const weld_result *w, co
         size_t n = lines->line[v + 1] - lines->line[v];
         bad = fwrite(lines->text + lines->line[v], 1, n, f) != n;
     }
-    for (uint32_t t = 0; t < face_count && !bad; ++t) {
+    const uint32_t total = face_count + (face_vertices ? w->dangling_count : 0);
+    for (uint32_t t = 0; t < total && !bad; ++t) {
         uint32_t corner[3];
         for (int k = 0; k < 3; ++k)
-            corner[k] = face_vertices ? face_vertices[3 * (size_t)t + k] : w->wedge_vertex[face_wedges[3 * (size_t)t + k]];
+            corner[k] = !face_vertices ? w->wedge_vertex[face_wedges[3 * (size_t)t + k]]
+                        : t < face_count ? face_vertices[3 * (size_t)t + k]
+                                         : w->dangling_vertices[3 * (size_t)(t - face_count) + k];
         /* "f a b c\n", 1-based, formatted by hand (fprintf was most of the
          * time of writing a large level 0) */
         char line[40], *at = line;
@@ -547,6 +552,14 @@ static void json_stats(FILE *f, const simplify_stats *st)
     fprintf(f, ",\"verify_checks\":%llu", (unsigned long long)st->verify_checks);
     fprintf(f, ",\"regions\":{\"rounds\":%u,\"commits\":%llu,\"deferred\":%llu,\"seconds\":%.6f}", st->rounds,
             (unsigned long long)st->region_commits, (unsigned long long)st->deferred, st->seconds_regions);
+}
+
+/* The warning for mesh m's dangling zero-area triangles (weld.h), the same
+ * from `simplify` and the main job. */
+static void warn_dangling(const char *in, uint32_t m, uint32_t count)
+{
+    lp_say("%s: warning: meshes[%u]: %u zero-area triangles are segments or points that may lie off its surface; "
+           "every level keeps them as they are (their vertices are never removed)", in, m, count);
 }
 
 /* The OBJ that `lodpipe simplify` writes for a mesh's level (0: the welded
@@ -618,16 +631,9 @@ static int cmd_simplify(const cli *c)
             json_string(j, mesh->name);
             fprintf(j, ",\"diagonal\":%.17g,\"triangles\":%u,\"weld\":{\"vertices\":%u,\"locked\":%u,\"degenerate_dropped\":%u,"
                        "\"degenerate_dangling\":%u},\"seconds_weld\":%.6f,\"seconds_setup\":%.6f,\"levels\":[",
-                    r.diagonal, w.triangle_count, w.vertex_count, w.stats.vertices_by_kind[WELD_LOCKED],
+                    r.diagonal, w.triangle_count + w.dangling_count, w.vertex_count, w.stats.vertices_by_kind[WELD_LOCKED],
                     w.stats.degenerate_triangles, w.stats.degenerate_dangling, r.seconds_weld, r.seconds_setup);
-            /* as in the main job, but this command writes its levels anyway:
-             * they are certified against level 0, the welded mesh, which
-             * leaves the zero-area triangles out (the weld locks every vertex,
-             * so each level is level 0 again) */
-            if (w.stats.degenerate_dangling && !c->quiet)
-                lp_say("%s: warning: meshes[%u]: %u zero-area triangles may lie off its surface; every vertex is locked "
-                       "and its levels equal level 0, the welded mesh, which leaves them out",
-                       in, m, w.stats.degenerate_dangling);
+            if (w.dangling_count && !c->quiet) warn_dangling(in, m, w.dangling_count);
             for (uint32_t k = 0; k < r.level_count; ++k) {
                 const simplify_level *l = &r.levels[k];
                 fprintf(j, "%s{\"level\":%u,\"fraction\":%.17g,\"eps\":%.17g,\"bound\":%.17g,\"triangles\":%u,\"seconds\":%.6f,",
@@ -640,7 +646,7 @@ static int cmd_simplify(const cli *c)
             if (!c->quiet && isatty(STDERR_FILENO))
                 for (uint32_t k = 0; k < r.level_count; ++k)
                     lp_say("%s: mesh %u level %u: %u -> %u triangles, bound %.4g%% of diagonal (%.2f s)",
-                            in, m, k + 1, w.triangle_count, r.levels[k].triangle_count,
+                            in, m, k + 1, w.triangle_count + w.dangling_count, r.levels[k].triangle_count,
                             r.diagonal > 0 ? 100.0 * r.levels[k].bound / r.diagonal : 0.0, r.levels[k].stats.seconds);
         }
         simplify_result_free(&r);
@@ -822,9 +828,7 @@ static int cmd_lod(const cli *c)
         if (!rc) rc = weld_and_simplify(&s, m, &mesh_opt, &w, &r, &err);
         const int welded = !rc;
         if (!rc) rc = scene_reload_mesh_data(&s, m, &err);
-        if (welded && w.stats.degenerate_dangling && !c->quiet)
-            lp_say("%s: warning: meshes[%u]: %u zero-area triangles may lie off its surface; "
-                            "the mesh is left without LOD levels", in, m, w.stats.degenerate_dangling);
+        if (welded && w.dangling_count && !c->quiet) warn_dangling(in, m, w.dangling_count);
         for (uint32_t k = 0; welded && draco && k < r.level_count; ++k) r.levels[k].eps = c->levels[k] * r.diagonal;
         if (!rc && draco) /* the quantization bound goes into the recorded errors */
             rc = dracoout_plan_mesh(&s, m, &w, &r, chain.min_reduction, &draco_opt, bits, &plan, &err);

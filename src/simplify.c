@@ -3077,10 +3077,13 @@ static int snapshot_level(sim *s, simplify_level *level)
             alive++;
             if (s->face_bound[f] > bound) bound = s->face_bound[f];
         }
+    /* the dangling triangles (weld.h) follow the faces as they are: covered
+     * by themselves, they add nothing to the bound */
+    const weld_result *w = s->w;
     level->bound = bound;
-    level->triangle_count = alive;
-    level->wedges = malloc(((size_t)alive * 3 + 1) * sizeof *level->wedges);
-    level->primitive = malloc(((size_t)alive + 1) * sizeof *level->primitive);
+    level->triangle_count = alive + w->dangling_count;
+    level->wedges = malloc(((size_t)level->triangle_count * 3 + 1) * sizeof *level->wedges);
+    level->primitive = malloc(((size_t)level->triangle_count + 1) * sizeof *level->primitive);
     if (!level->wedges || !level->primitive) return -1;
     if (s->moved_any) {
         level->positions = malloc((3 * (size_t)s->nv + 1) * sizeof *level->positions);
@@ -3091,7 +3094,11 @@ static int snapshot_level(sim *s, simplify_level *level)
     for (uint32_t f = 0; f < s->nf; ++f) {
         if (!s->face_alive[f]) continue;
         memcpy(level->wedges + 3 * (size_t)n, s->corner_wedge + 3 * (size_t)f, 3 * sizeof *level->wedges);
-        level->primitive[n++] = s->w->triangle_primitive[f];
+        level->primitive[n++] = w->triangle_primitive[f];
+    }
+    if (w->dangling_count) {
+        memcpy(level->wedges + 3 * (size_t)n, w->dangling_wedges, 3 * (size_t)w->dangling_count * sizeof *level->wedges);
+        memcpy(level->primitive + n, w->dangling_primitive, (size_t)w->dangling_count * sizeof *level->primitive);
     }
     return 0;
 }

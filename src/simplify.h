@@ -2,8 +2,10 @@
  * eps values (DESIGN.md §5, §6).
  *
  * Promise. For each level k, every point of the level is within
- * levels[k].bound of the original mesh (the welded triangles, per material)
- * and every point of the original is within levels[k].bound of the level:
+ * levels[k].bound of the original mesh (the welded triangles, per material,
+ * and the weld's dangling triangles, which every level carries as they are,
+ * after its faces) and every point of the original is within
+ * levels[k].bound of the level:
  * the two-sided Hausdorff distance, in mesh units, certified by certify.h,
  * with bound <= eps_k = fraction_k * diagonal. Each level is simplified from
  * the previous one (its vertices are a subset) and certified against the
@@ -117,7 +119,7 @@ typedef struct simplify_stats {
 typedef struct simplify_level {
     double eps;                 /* absolute */
     double bound;               /* certified two-sided bound, <= eps */
-    uint32_t triangle_count;
+    uint32_t triangle_count;    /* faces, then the weld's dangling_count triangles */
     uint32_t *wedges;           /* 3 weld wedges per triangle */
     uint32_t *primitive;        /* per triangle: index into the mesh's primitives */
     /* NULL while every vertex is where the weld put it; else, once a level

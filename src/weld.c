@@ -20,7 +20,8 @@
  *                      the vertex-triangle lists)
  *   mark_seams         seam flag of manifold interior edges
  *   classify_vertices  walk each umbrella, apply the kind rules
- *   count_dangling     statistics on dropped triangles */
+ *   find_dangling      dropped triangles that may lie off the surface
+ *   keep_dangling      ... kept beside the topology, their vertices locked */
 #include "weld.h"
 
 #include <assert.h>
@@ -86,6 +87,7 @@ typedef struct weld_work {
     uint32_t *prov_key;      /* provisional position -> 3 float keys */
     uint32_t prov_count;
     uint32_t *prov_final;    /* provisional position -> final vertex id or NONE */
+    uint32_t *dangling_triangle; /* per dangling triangle: its number in its primitive */
 } weld_work;
 
 static void work_free(weld_work *k)
@@ -95,6 +97,7 @@ static void work_free(weld_work *k)
     free(k->gv_wedge);
     free(k->prov_key);
     free(k->prov_final);
+    free(k->dangling_triangle);
 }
 
 static int out_of_memory(weld_work *k, lp_error *err)
@@ -192,8 +195,9 @@ static int triangle_is_degenerate(const weld_work *k, uint32_t p, size_t t)
  * it removes nothing a renderer draws, and nothing of the surface's area.
  * Its point set is a segment (or a point); when that segment is an edge of a
  * kept triangle (the usual case: a sliver left over from a strip or from
- * welding) the union of the triangles is unchanged too. count_dangling
- * reports the rare drops where it is not. Kept triangles then have three
+ * welding) the union of the triangles is unchanged too. find_dangling
+ * finds the rare drops where it is not, and keep_dangling keeps those beside
+ * the topology. Kept triangles then have three
  * distinct position vertices, which the umbrella walk relies on.
  * Numbers kept position vertices and wedges by first appearance. */
 static int number_kept(weld_work *k, weld_result *out, lp_error *err)
@@ -594,7 +598,7 @@ static void classify_vertices(weld_result *out)
 /* A dropped triangle is "dangling" when its segment (two distinct positions)
  * is not an edge of a kept triangle, or its point (one position) is not a
  * kept vertex. Conservative: such a segment may still lie inside the surface;
- * it is only counted, for the caller to report. */
+ * keeping it costs only its vertices' lock (keep_dangling). */
 /* Is {a, b} (a != b) an edge of a kept triangle? Any kept triangle that has
  * both has it as an edge: looked for around the endpoint with fewer. */
 static int is_kept_edge(const weld_result *out, uint32_t a, uint32_t b)
@@ -618,57 +622,179 @@ static int compare_u64(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-/* Counts the dropped triangles that dangle. A dropped triangle whose two
- * positions are kept is a segment: it dangles unless it is an edge of a kept
- * triangle. Each distinct segment is looked up once (many dropped triangles
- * on one pair of hub vertices must not each walk a hub's triangles). */
-static int count_dangling(weld_work *k, weld_result *out, lp_error *err)
+/* The point set of dropped triangle t of primitive p as position vertices:
+ * a segment a-b, or a point (a == b); NONE for a position that no kept
+ * triangle uses. */
+static void dropped_segment(const weld_work *k, uint32_t p, size_t t, uint32_t *a, uint32_t *b)
+{
+    const uint32_t *tri = k->mesh->primitives[p].triangles + 3 * t;
+    uint32_t q[3];
+    for (int c = 0; c < 3; ++c) q[c] = k->prov_final[k->gv_position[k->prim_base[p] + tri[c]]];
+    *a = q[0];
+    *b = q[0] == q[1] ? q[2] : q[1];
+}
+
+static uint64_t segment_key(uint32_t a, uint32_t b)
+{
+    return a < b ? (uint64_t)a << 32 | b : (uint64_t)b << 32 | a;
+}
+
+/* Finds the dropped triangles that dangle, in input order, into
+ * dangling_primitive and k->dangling_triangle (their number in the
+ * primitive). A dropped triangle whose two positions are kept is a segment:
+ * it dangles unless it is an edge of a kept triangle. Each distinct segment
+ * is looked up once (many dropped triangles on one pair of hub vertices must
+ * not each walk a hub's triangles). */
+static int find_dangling(weld_work *k, weld_result *out, lp_error *err)
 {
     const scene_mesh *m = k->mesh;
+    const uint32_t dropped = out->stats.degenerate_triangles;
     size_t count = 0;
-    /* (lower << 32 | higher) of each segment to look up: at most one per dropped triangle */
-    uint64_t *segments = alloc_array(out->stats.degenerate_triangles, sizeof *segments);
-    if (!segments) return out_of_memory(k, err);
+    /* segment_key of each segment to look up: at most one per dropped triangle */
+    uint64_t *segments = alloc_array(dropped, sizeof *segments);
+    uint8_t *is_edge = alloc_array(dropped, sizeof *is_edge);
+    out->dangling_primitive = alloc_array(dropped, sizeof *out->dangling_primitive);
+    k->dangling_triangle = alloc_array(dropped, sizeof *k->dangling_triangle);
+    if (!segments || !is_edge || !out->dangling_primitive || !k->dangling_triangle) {
+        free(segments);
+        free(is_edge);
+        return out_of_memory(k, err);
+    }
     for (uint32_t p = 0; p < m->primitive_count; ++p) {
         const scene_primitive *pr = &m->primitives[p];
         if (!is_welded(pr)) continue;
         for (size_t t = 0; t < pr->triangle_count; ++t) {
+            uint32_t a, b;
             if (!triangle_is_degenerate(k, p, t)) continue;
-            uint32_t q[3];
-            for (int c = 0; c < 3; ++c)
-                q[c] = k->prov_final[k->gv_position[k->prim_base[p] + pr->triangles[3 * t + (size_t)c]]];
-            uint32_t a = q[0], b = q[0] == q[1] ? q[2] : q[1];
-            if (a == NONE || b == NONE) {
-                out->stats.degenerate_dangling++;
-                continue;
-            }
-            if (a == b) continue;
-            segments[count++] = a < b ? (uint64_t)a << 32 | b : (uint64_t)b << 32 | a;
+            dropped_segment(k, p, t, &a, &b);
+            if (a != NONE && b != NONE && a != b) segments[count++] = segment_key(a, b);
         }
     }
     if (count) qsort(segments, count, sizeof *segments, compare_u64);
-    for (size_t i = 0, j; i < count; i = j) {
-        for (j = i + 1; j < count && segments[j] == segments[i]; ++j) {}
-        if (!is_kept_edge(out, (uint32_t)(segments[i] >> 32), (uint32_t)segments[i]))
-            out->stats.degenerate_dangling += (uint32_t)(j - i);
+    size_t unique = 0;
+    for (size_t i = 0; i < count; ++i)
+        if (!unique || segments[i] != segments[unique - 1]) segments[unique++] = segments[i];
+    for (size_t i = 0; i < unique; ++i)
+        is_edge[i] = (uint8_t)is_kept_edge(out, (uint32_t)(segments[i] >> 32), (uint32_t)segments[i]);
+    uint32_t n = 0;
+    for (uint32_t p = 0; p < m->primitive_count; ++p) {
+        const scene_primitive *pr = &m->primitives[p];
+        if (!is_welded(pr)) continue;
+        for (size_t t = 0; t < pr->triangle_count; ++t) {
+            uint32_t a, b;
+            if (!triangle_is_degenerate(k, p, t)) continue;
+            dropped_segment(k, p, t, &a, &b);
+            int dangles = a == NONE || b == NONE;
+            if (!dangles && a != b) {
+                const uint64_t key = segment_key(a, b);
+                const uint64_t *at = bsearch(&key, segments, unique, sizeof *segments, compare_u64);
+                assert(at); /* the first walk listed every such segment */
+                dangles = !is_edge[at - segments];
+            }
+            if (!dangles) continue;
+            out->dangling_primitive[n] = p;
+            k->dangling_triangle[n++] = (uint32_t)t;
+        }
     }
     free(segments);
+    free(is_edge);
+    out->dangling_count = n;
+    out->stats.degenerate_dangling = n;
     return LP_OK;
 }
 
-/* A dangling dropped triangle is a segment that may lie off the welded
- * surface, where no level of it can be certified to stay within eps (the
- * certificate covers kept triangles only). Until levels can carry such
- * segments along, the whole mesh is locked: every level equals the original
- * and none is written, so the promise holds. */
-static void lock_if_dangling(weld_result *out)
+/* Sets *array to a block of count elements of size bytes holding its first
+ * elements; 0, or -1 with *array unchanged when memory runs out. */
+static int grow_array(void **array, size_t count, size_t size)
 {
-    if (!out->stats.degenerate_dangling) return;
+    void *p = realloc(*array, (count ? count : 1) * size);
+    if (!p) return -1;
+    *array = p;
+    return 0;
+}
+
+/* Numbers the positions and wedges of the dangling triangles that no kept
+ * triangle uses (after the kept ones, by first appearance) and returns how
+ * many vertices and wedges there are then. */
+static void number_dangling(weld_work *k, const weld_result *out, uint32_t *vertices, uint32_t *wedges)
+{
+    *vertices = out->vertex_count;
+    *wedges = out->wedge_count;
+    for (uint32_t i = 0; i < out->dangling_count; ++i) {
+        const uint32_t p = out->dangling_primitive[i];
+        const uint32_t *tri = k->mesh->primitives[p].triangles + 3 * (size_t)k->dangling_triangle[i];
+        for (int c = 0; c < 3; ++c) {
+            const uint32_t gv = k->prim_base[p] + tri[c];
+            uint32_t *final = &k->prov_final[k->gv_position[gv]];
+            if (*final == NONE) *final = (*vertices)++;
+            if (k->gv_wedge[gv] == NONE) k->gv_wedge[gv] = (*wedges)++;
+        }
+    }
+}
+
+/* Vertex and wedge counts by kind, again from vertex_kind. */
+static void count_kinds(weld_result *out)
+{
     memset(out->stats.vertices_by_kind, 0, sizeof out->stats.vertices_by_kind);
     memset(out->stats.wedges_by_kind, 0, sizeof out->stats.wedges_by_kind);
-    for (uint32_t v = 0; v < out->vertex_count; ++v) out->vertex_kind[v] = WELD_LOCKED;
-    out->stats.vertices_by_kind[WELD_LOCKED] = out->vertex_count;
-    out->stats.wedges_by_kind[WELD_LOCKED] = out->wedge_count;
+    for (uint32_t v = 0; v < out->vertex_count; ++v) out->stats.vertices_by_kind[out->vertex_kind[v]]++;
+    for (uint32_t w = 0; w < out->wedge_count; ++w) out->stats.wedges_by_kind[out->vertex_kind[out->wedge_vertex[w]]]++;
+}
+
+/* A dangling triangle is a segment (or point) that may lie off the welded
+ * surface, where no simplified face can be certified to stay within eps of
+ * it: the levels carry it as it is instead, covered by itself. Its positions
+ * and wedges join the vertex and wedge arrays (new vertices without a
+ * triangle), and its vertices are locked so that it stays valid and in
+ * place in every level. */
+static int keep_dangling(weld_work *k, weld_result *out, lp_error *err)
+{
+    const uint32_t n = out->dangling_count, old_vertices = out->vertex_count, old_wedges = out->wedge_count;
+    if (!n) return LP_OK;
+    uint32_t vertices, wedges;
+    number_dangling(k, out, &vertices, &wedges);
+    if (grow_array((void **)&out->positions, 3 * (size_t)vertices, sizeof *out->positions) ||
+        grow_array((void **)&out->vertex_kind, vertices, sizeof *out->vertex_kind) ||
+        grow_array((void **)&out->vertex_triangle_offsets, (size_t)vertices + 1, sizeof *out->vertex_triangle_offsets) ||
+        grow_array((void **)&out->wedge_primitive, wedges, sizeof *out->wedge_primitive) ||
+        grow_array((void **)&out->wedge_index, wedges, sizeof *out->wedge_index) ||
+        grow_array((void **)&out->wedge_vertex, wedges, sizeof *out->wedge_vertex) ||
+        grow_array((void **)&out->wedge_class, wedges, sizeof *out->wedge_class))
+        return out_of_memory(k, err);
+    out->dangling_wedges = alloc_array(3 * (size_t)n, sizeof *out->dangling_wedges);
+    out->dangling_vertices = alloc_array(3 * (size_t)n, sizeof *out->dangling_vertices);
+    if (!out->dangling_wedges || !out->dangling_vertices) return out_of_memory(k, err);
+    for (uint32_t v = old_vertices; v < vertices; ++v) /* no triangle of the topology */
+        out->vertex_triangle_offsets[v + 1] = out->vertex_triangle_offsets[old_vertices];
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t p = out->dangling_primitive[i];
+        const uint32_t *tri = k->mesh->primitives[p].triangles + 3 * (size_t)k->dangling_triangle[i];
+        for (int c = 0; c < 3; ++c) {
+            const uint32_t gv = k->prim_base[p] + tri[c], prov = k->gv_position[gv];
+            const uint32_t vertex = k->prov_final[prov], wedge = k->gv_wedge[gv];
+            if (vertex >= old_vertices)
+                for (int a = 0; a < 3; ++a) {
+                    const uint32_t bits = k->prov_key[3 * (size_t)prov + (size_t)a];
+                    memcpy(&out->positions[3 * (size_t)vertex + (size_t)a], &bits, sizeof bits);
+                }
+            if (wedge >= old_wedges) {
+                out->wedge_primitive[wedge] = p;
+                out->wedge_index[wedge] = tri[c];
+                out->wedge_vertex[wedge] = vertex;
+                out->wedge_class[wedge] = wedge;
+            }
+            out->dangling_wedges[3 * (size_t)i + (size_t)c] = wedge;
+            out->dangling_vertices[3 * (size_t)i + (size_t)c] = vertex;
+        }
+    }
+    for (size_t c = 0; c < 3 * (size_t)n; ++c) out->vertex_kind[out->dangling_vertices[c]] = WELD_LOCKED;
+    out->vertex_count = vertices;
+    out->wedge_count = wedges;
+    out->stats.vertices = vertices;
+    out->stats.wedges = wedges;
+    out->stats.wedge_classes += wedges - old_wedges;
+    count_kinds(out);
+    return LP_OK;
 }
 
 /* ---- public ----------------------------------------------------------------- */
@@ -693,9 +819,9 @@ int weld_build(const scene_mesh *mesh, weld_result *out, lp_error *err)
     if (!rc) {
         mark_seams(out);
         classify_vertices(out);
-        rc = count_dangling(&k, out, err);
+        rc = find_dangling(&k, out, err);
     }
-    if (!rc) lock_if_dangling(out);
+    if (!rc) rc = keep_dangling(&k, out, err);
     work_free(&k);
     if (rc) weld_free(out);
     return rc;
@@ -716,6 +842,9 @@ void weld_free(weld_result *w)
     free(w->triangle_primitive);
     free(w->edge_opposite);
     free(w->edge_flags);
+    free(w->dangling_wedges);
+    free(w->dangling_vertices);
+    free(w->dangling_primitive);
     memset(w, 0, sizeof *w);
 }
 

@@ -23,9 +23,15 @@
  *   after welding (two corners on one position vertex) are dropped and
  *   counted; zero-area triangles with three distinct positions are kept.
  *   A dropped triangle whose segment (or point) is not an edge (vertex) of a
- *   kept triangle is "dangling": it may lie off the welded surface, where the
- *   certificate cannot follow it, so a mesh with one has EVERY vertex LOCKED
- *   (its levels equal the original: no LOD is written for it);
+ *   kept triangle is "dangling": it may lie off the welded surface, where no
+ *   simplified face could be certified to stay near it. Dangling triangles
+ *   are kept BESIDE the topology (dangling_*), as they are: every level
+ *   carries them unchanged, so they are covered by themselves, and their
+ *   position vertices are LOCKED (never removed, never moved) so that they
+ *   stay valid in every level. Their positions and wedges that no kept
+ *   triangle uses are numbered after all the kept triangles' ones, by first
+ *   appearance among the dangling triangles; such vertices have no triangle
+ *   in the adjacency (an empty range) and such wedges are their own class;
  * - adjacency: for each position vertex the triangles around it (CSR), and
  *   for each triangle edge the opposite edge, or a border / non-manifold
  *   marker, plus a seam flag;
@@ -122,7 +128,8 @@ typedef struct weld_stats {
     uint32_t triangles;            /* kept = input - degenerate */
     uint32_t degenerate_triangles; /* dropped: two corners on one position vertex */
     uint32_t degenerate_dangling;  /* of those, ones whose segment/point is not
-                                      an edge/vertex of a kept triangle (see weld.c) */
+                                      an edge/vertex of a kept triangle (see weld.c):
+                                      kept beside the topology, = dangling_count */
     uint32_t vertices;             /* position vertices */
     uint32_t wedges;
     uint32_t wedge_classes;        /* distinct (position, primitive, attribute values) */
@@ -158,6 +165,13 @@ typedef struct weld_result {
     uint32_t *edge_opposite;      /* 3 per triangle: opposite edge or a WELD_EDGE_IS_ marker
                                      (NULL after weld_release_edge_opposite) */
     uint8_t *edge_flags;          /* 3 per triangle: WELD_FLAG_ bits */
+
+    /* dangling dropped triangles (above), in input order: not part of the
+     * topology, carried by every level as they are */
+    uint32_t dangling_count;
+    uint32_t *dangling_wedges;    /* 3 per triangle */
+    uint32_t *dangling_vertices;  /* 3 per triangle, = wedge_vertex[dangling_wedges[..]] */
+    uint32_t *dangling_primitive; /* 1 per triangle */
 
     weld_stats stats;
 } weld_result;

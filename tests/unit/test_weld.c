@@ -164,15 +164,37 @@ static void check_invariants(const weld_result *w, const scene_mesh *m)
         }
     }
     CHECK(ok_corner, "corners: distinct vertices, wedge vertex and primitive agree");
+    /* then the dangling triangles' own positions and wedges, by first appearance among them; their
+     * vertices locked */
+    const uint32_t kept_wedges = next_w;
+    CHECK(w->dangling_count == s->degenerate_dangling, "dangling kept %u of %u", w->dangling_count, s->degenerate_dangling);
+    int ok_dangling = 1;
+    for (uint32_t i = 0; i < 3 * w->dangling_count; ++i) {
+        uint32_t v = w->dangling_vertices[i], wd = w->dangling_wedges[i];
+        if (wd >= w->wedge_count || w->wedge_vertex[wd] != v || w->vertex_kind[v] != WELD_LOCKED ||
+            w->wedge_primitive[wd] != w->dangling_primitive[i / 3])
+            ok_dangling = 0;
+        if (v > next_v || wd > next_w) ok_order = 0;
+        if (v == next_v) next_v++;
+        if (wd == next_w) next_w++;
+        if (wd < w->wedge_count) {
+            const scene_primitive *pr = &m->primitives[w->wedge_primitive[wd]];
+            for (int a = 0; a < 3; ++a)
+                if (fkey(pr->positions[3 * w->wedge_index[wd] + (uint32_t)a]) != fkey(w->positions[3 * v + (uint32_t)a]))
+                    ok_pos = 0;
+        }
+    }
+    CHECK(ok_dangling, "dangling triangles: wedge vertex and primitive agree, vertices locked");
     CHECK(ok_order && next_v == w->vertex_count && next_w == w->wedge_count, "first-appearance numbering");
     CHECK(ok_pos, "wedge positions equal their vertex position");
 
-    /* wedge classes: representative is the lowest equal wedge */
+    /* wedge classes: representative is the lowest equal wedge (a wedge only dangling triangles use is
+     * its own class) */
     int ok_class = 1;
     uint32_t classes = 0;
     for (uint32_t a = 0; a < w->wedge_count; ++a) {
         uint32_t rep = a;
-        for (uint32_t b = 0; b < a; ++b)
+        for (uint32_t b = 0; b < a && a < kept_wedges; ++b)
             if (w->wedge_vertex[b] == w->wedge_vertex[a] &&
                 attrs_equal(m, w->wedge_primitive[a], w->wedge_index[a], w->wedge_primitive[b], w->wedge_index[b])) {
                 rep = b;
@@ -266,8 +288,10 @@ static void check_invariants(const weld_result *w, const scene_mesh *m)
         if (kind == WELD_MANIFOLD && (vborder || vchange)) ok_kind = 0;
         if (kind == WELD_BORDER && (vborder != 2 || vchange)) ok_kind = 0;
         if (kind == WELD_SEAM && (vborder || vseam != 2 || vchange != 2)) ok_kind = 0;
-        if (kind == WELD_LOCKED && !vnm && vborder == 0 && vchange == 0) {
-            /* locked without a reason at the edges: must be several fans */
+        int dangles = 0;
+        for (uint32_t i = 0; i < 3 * w->dangling_count; ++i) dangles |= w->dangling_vertices[i] == v;
+        if (kind == WELD_LOCKED && !vnm && vborder == 0 && vchange == 0 && !dangles) {
+            /* locked without a reason at the edges or a dangling triangle: must be several fans */
             if (w->stats.nonmanifold_vertices == 0) ok_kind = 0;
         }
     }
@@ -836,15 +860,35 @@ static void test_degenerate(void)
         CHECK(w.stats.degenerate_triangles == 5, "dropped %u", w.stats.degenerate_triangles);
         CHECK(w.stats.degenerate_dangling == 2, "dangling %u", w.stats.degenerate_dangling);
         CHECK(w.triangle_count == 3, "kept %u", w.triangle_count);
-        CHECK(w.vertex_count == 7, "positions used only by dropped triangles are gone: %u", w.vertex_count);
-        CHECK(w.wedge_count == 7, "wedges %u", w.wedge_count);
-        CHECK(find_vertex(&w, 5, 5, 5) == UINT32_MAX, "no vertex at (5,5,5)");
+        /* the dangling segment 5-6 off the surface brings its two positions and wedges, after the kept ones */
+        CHECK(w.vertex_count == 9, "7 kept positions + 2 only the dangling triangle uses: %u", w.vertex_count);
+        CHECK(w.wedge_count == 9, "wedges %u", w.wedge_count);
+        const uint32_t v5 = find_vertex(&w, 5, 5, 5), v6 = find_vertex(&w, 6, 6, 6);
+        CHECK(v5 == 7 && v6 == 8, "(5,5,5) and (6,6,6) numbered last: %u %u", v5, v6);
         CHECK(w.positions[0] == 0 && w.positions[3] == 1, "first kept triangle numbers first");
         CHECK(w.triangle_primitive[2] == 1, "the collinear triangle is kept, primitive 1");
         for (uint32_t i = 0; i < w.wedge_count; ++i) CHECK(w.wedge_index[i] != 4, "no wedge for vertex 4");
-        /* a dangling segment may lie off the surface: the whole mesh is locked (no levels) */
-        for (uint32_t v = 0; v < w.vertex_count; ++v) CHECK(w.vertex_kind[v] == WELD_LOCKED, "vertex %u locked", v);
-        CHECK(w.stats.vertices_by_kind[WELD_LOCKED] == w.vertex_count, "kind statistics follow the lock");
+        /* the dangling triangles, in input order, kept beside the topology as they are */
+        CHECK(w.dangling_count == 2, "dangling kept %u", w.dangling_count);
+        if (w.dangling_count == 2) {
+            const uint32_t v1 = find_vertex(&w, 1, 0, 0), v3 = find_vertex(&w, 0, 1, 0);
+            const uint32_t expect[6] = {v5, v5, v6, v1, v3, v3};
+            for (int c = 0; c < 6; ++c) {
+                CHECK(w.dangling_vertices[c] == expect[c], "dangling corner %d: vertex %u", c, w.dangling_vertices[c]);
+                CHECK(w.wedge_vertex[w.dangling_wedges[c]] == w.dangling_vertices[c], "dangling corner %d: wedge", c);
+                CHECK(w.wedge_primitive[w.dangling_wedges[c]] == 0, "dangling corner %d: primitive", c);
+            }
+            CHECK(w.wedge_index[w.dangling_wedges[0]] == 5 && w.wedge_index[w.dangling_wedges[2]] == 6, "glTF vertices 5, 6");
+            CHECK(w.dangling_primitive[0] == 0 && w.dangling_primitive[1] == 0, "primitives");
+            /* their vertices are locked (they stay in every level); the others keep their kinds */
+            for (uint32_t v = 0; v < w.vertex_count; ++v) {
+                const int dangles = v == v1 || v == v3 || v == v5 || v == v6;
+                CHECK((w.vertex_kind[v] == WELD_LOCKED) == dangles, "vertex %u: kind %u", v, w.vertex_kind[v]);
+            }
+            CHECK(w.vertex_triangle_offsets[v5] == w.vertex_triangle_offsets[v6 + 1], "no triangles at 5, 6");
+        }
+        CHECK(w.stats.vertices_by_kind[WELD_LOCKED] == 4, "kind statistics follow the lock: %u",
+              w.stats.vertices_by_kind[WELD_LOCKED]);
     }
     weld_free(&w);
     free(b);
