@@ -719,32 +719,28 @@ static int draco_encode_all(scene *s, const draco_job *jobs, uint32_t count, con
     return rc;
 }
 
-/* Why a simplified mesh kept no level (the main job's closing warning). */
-typedef enum no_level_reason { NO_LEVEL_FLAT, NO_LEVEL_DANGLING, NO_LEVEL_SMALL, NO_LEVEL_REASONS } no_level_reason;
+/* Why a simplified mesh kept no level (the main job's closing warning). Zero-area
+ * triangles off the surface no longer keep a mesh from its levels (weld.h:
+ * they ride along unchanged), so a mesh with an extent that kept none had no
+ * level that removed lod.min_reduction of its triangles. */
+typedef enum no_level_reason { NO_LEVEL_FLAT, NO_LEVEL_SMALL, NO_LEVEL_REASONS } no_level_reason;
 
-/* A mesh with no extent has only zero-area triangles too: that is the reason
- * its load warning gives, so it comes first. */
-static no_level_reason no_level_reason_of(const weld_result *w, const simplify_result *r)
+static no_level_reason no_level_reason_of(const simplify_result *r)
 {
-    if (!(r->diagonal > 0)) return NO_LEVEL_FLAT;
-    return w->stats.degenerate_dangling ? NO_LEVEL_DANGLING : NO_LEVEL_SMALL;
+    return r->diagonal > 0 ? NO_LEVEL_SMALL : NO_LEVEL_FLAT;
 }
 
 /* The warning of a run that simplified meshes but kept no level of any: the
  * output is then the input rewritten, and silence would read as LOD work
  * done. Names the reason most of those meshes share (a tie: the first in
- * no_level_reason's order); the first two also have a warning per mesh. */
+ * no_level_reason's order); a flat mesh also has a warning of its own. */
 static void say_no_level_kept(const char *in, uint32_t simplified, const uint32_t count[NO_LEVEL_REASONS],
                               double min_reduction)
 {
-    no_level_reason top = NO_LEVEL_FLAT;
-    for (int k = 1; k < NO_LEVEL_REASONS; ++k)
-        if (count[k] > count[top]) top = (no_level_reason)k;
+    const no_level_reason top = count[NO_LEVEL_SMALL] > count[NO_LEVEL_FLAT] ? NO_LEVEL_SMALL : NO_LEVEL_FLAT;
     char reason[96];
     if (top == NO_LEVEL_FLAT)
         snprintf(reason, sizeof reason, "no extent (bounding-box diagonal 0)");
-    else if (top == NO_LEVEL_DANGLING)
-        snprintf(reason, sizeof reason, "zero-area triangles that may lie off the surface");
     else
         snprintf(reason, sizeof reason, "no level removed %g %% of its triangles, lod.min_reduction",
                  100.0 * min_reduction);
@@ -838,7 +834,7 @@ static int cmd_lod(const cli *c)
         if (!rc) {
             simplified++;
             if (sum.level_count) kept_any++;
-            else no_level[no_level_reason_of(&w, &r)]++;
+            else no_level[no_level_reason_of(&r)]++;
         }
         if (!rc && draco) { /* encoded once every chain is written (draco_encode_all) */
             draco_jobs[draco_job_count] = (draco_job){m, plan, sum};
