@@ -374,6 +374,66 @@ test('limits: refused before allocation, with a one-line error', { skip }, async
   });
 });
 
+// Malformed containers and buffers that once reached tinygltf or nlohmann and came back in their words
+// (QA: `vector::_M_range_check`, `[json.exception.type_error.302]`, "Insufficient storage space for Chunk1",
+// "File read error : ... File is empty"): each is the loader's own one-line error naming the object, exit 2,
+// from the main job, inspect and convert alike, with no output.
+
+const CHUNK_JSON = 0x4e4f534a;
+const CHUNK_BIN = 0x004e4942;
+const LIBRARY_TEXT = /vector::|_M_|json\.exception|tinygltf|Failed to|File read error|Insufficient storage|malformed glTF/;
+
+/** A GLB of the given [type, bytes] chunks, in that order. */
+function writeGlbChunks(file, chunks) {
+  const parts = [];
+  for (const [type, data] of chunks) {
+    const h = Buffer.alloc(8);
+    h.writeUInt32LE(data.length, 0);
+    h.writeUInt32LE(type, 4);
+    parts.push(h, data);
+  }
+  const header = Buffer.alloc(12);
+  header.writeUInt32LE(0x46546c67, 0);
+  header.writeUInt32LE(2, 4);
+  header.writeUInt32LE(12 + parts.reduce((n, b) => n + b.length, 0), 8);
+  fs.writeFileSync(file, Buffer.concat([header, ...parts]));
+}
+
+const jsonChunk = (json) => {
+  const text = Buffer.from(JSON.stringify(json), 'utf8');
+  return text.length % 4 ? Buffer.concat([text, Buffer.alloc(4 - (text.length % 4), 0x20)]) : text;
+};
+
+/** The main job, inspect and convert all refuse `input` with `code` and one line matching `needle`, in lodpipe's words. */
+function assertRefusedByEveryCommand(st, input, code, needle) {
+  for (const args of [(out) => [input, '-o', out], () => ['inspect', input], (out) => ['convert', input, out]]) {
+    const dir = tempDir(st);
+    const r = runLodpipe(args(path.join(dir, 'out.glb')), { timeout: LIMIT_TIMEOUT_MS });
+    const p = refusalProblems(r, code, path.basename(input), dir);
+    if (!needle.test(r.stderr)) p.push(`stderr does not match ${needle}`);
+    if (LIBRARY_TEXT.test(r.stderr)) p.push('stderr shows a library\'s text');
+    assert.deepEqual(p, [], describeRun(r));
+  }
+}
+
+test('malformed containers and buffers: one line in lodpipe\'s words, from every command', { skip }, async (t) => {
+  const dir = tempDir(t);
+
+  // The GLB spec fixes the order: one JSON chunk first, at most one BIN chunk second. A second JSON chunk was
+  // either ignored (after the BIN) or taken for a missing BIN ("there is none", before it).
+  await t.test('a GLB with a second JSON chunk, or a BIN chunk that is not the second -> exit 2 naming the chunk', (st) => {
+    const m = triangleModel();
+    const cases = [['two_json.glb', [[CHUNK_JSON, jsonChunk(m.json)], [CHUNK_JSON, jsonChunk(m.json)], [CHUNK_BIN, m.bin]], /GLB chunk 1 is a second JSON chunk/],
+      ['json_after_bin.glb', [[CHUNK_JSON, jsonChunk(m.json)], [CHUNK_BIN, m.bin], [CHUNK_JSON, jsonChunk(m.json)]], /GLB chunk 2 is a second JSON chunk/],
+      ['late_bin.glb', [[CHUNK_JSON, jsonChunk(m.json)], [0x12345678, Buffer.alloc(4)], [CHUNK_BIN, m.bin]], /GLB chunk 2 is a BIN chunk \(a GLB has at most one, the second\)/]];
+    for (const [name, chunks, needle] of cases) {
+      const f = path.join(dir, name);
+      writeGlbChunks(f, chunks);
+      assertRefusedByEveryCommand(st, f, 2, needle);
+    }
+  });
+});
+
 // ---------------------------------------------------------------------------------------------
 // 4. Safe writes
 

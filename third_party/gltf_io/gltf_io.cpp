@@ -645,7 +645,11 @@ const ojson &array_of(const ojson &root, const char *name)
     return it == root.end() ? empty : *it;
 }
 
-// Splits a GLB into its JSON text and BIN chunk, checking every length.
+// Splits a GLB into its JSON text and BIN chunk, checking every length and the
+// chunk order the GLB spec fixes: JSON first, at most one BIN and only second,
+// other chunk types skipped. A second JSON chunk or a misplaced BIN is refused
+// rather than ignored: which one a reader takes is a guess, and the other's data
+// would be lost.
 void parse_glb(const std::vector<uint8_t> &file, std::string *json_text, const uint8_t **bin, size_t *bin_size)
 {
     if (file.size() < 20) fail(GLTF_INVALID, "GLB file too short for a header (" + std::to_string(file.size()) + " bytes)");
@@ -664,11 +668,15 @@ void parse_glb(const std::vector<uint8_t> &file, std::string *json_text, const u
         pos += 8;
         if (len > file.size() - pos)
             fail(GLTF_INVALID, "GLB chunk " + std::to_string(chunk) + " runs past the end of the file");
+        const std::string which = "GLB chunk " + std::to_string(chunk);
         if (chunk == 0) {
             if (type != 0x4E4F534Au) fail(GLTF_INVALID, "GLB first chunk is not JSON");
             json_text->assign(reinterpret_cast<const char *>(&file[pos]), size_t(len));
             have_json = true;
-        } else if (chunk == 1 && type == 0x004E4942u) {
+        } else if (type == 0x4E4F534Au) {
+            fail(GLTF_INVALID, which + " is a second JSON chunk (a GLB has one, the first)");
+        } else if (type == 0x004E4942u) {
+            if (chunk != 1) fail(GLTF_INVALID, which + " is a BIN chunk (a GLB has at most one, the second)");
             *bin = &file[pos];
             *bin_size = size_t(len);
         }
