@@ -432,6 +432,42 @@ test('malformed containers and buffers: one line in lodpipe\'s words, from every
       assertRefusedByEveryCommand(st, f, 2, needle);
     }
   });
+
+  // tinygltf indexed a second, empty buffer unchecked (`vector::_M_range_check`), refused an empty BIN chunk and an
+  // empty .bin in its own words, and required a data: uri to decode to byteLength bytes without saying so.
+  await t.test('a buffer whose source does not hold its byteLength -> exit 2 naming the buffer and both sizes', (st) => {
+    const m = triangleModel();
+    const zero = JSON.parse(JSON.stringify(m.json));
+    zero.buffers.push({ byteLength: 0 });
+    writeGlb(path.join(dir, 'zero_length.glb'), zero, m.bin);
+    assertRefusedByEveryCommand(st, path.join(dir, 'zero_length.glb'), 2, /buffers\[1\]\.byteLength is 0 \(a buffer holds at least 1 byte\)/);
+    writeGlbChunks(path.join(dir, 'empty_bin.glb'), [[CHUNK_JSON, jsonChunk(m.json)], [CHUNK_BIN, Buffer.alloc(0)]]);
+    assertRefusedByEveryCommand(st, path.join(dir, 'empty_bin.glb'), 2, /buffers\[0\] declares 44 bytes, but the GLB BIN chunk holds 0/);
+    writeGlbChunks(path.join(dir, 'short_bin.glb'), [[CHUNK_JSON, jsonChunk(m.json)], [CHUNK_BIN, m.bin.subarray(0, 8)]]);
+    assertRefusedByEveryCommand(st, path.join(dir, 'short_bin.glb'), 2, /buffers\[0\] declares 44 bytes, but the GLB BIN chunk holds 8/);
+    const ext = JSON.parse(JSON.stringify(m.json));
+    ext.buffers[0].uri = 'empty.bin';
+    fs.writeFileSync(path.join(dir, 'empty.bin'), Buffer.alloc(0));
+    fs.writeFileSync(path.join(dir, 'empty_external.gltf'), JSON.stringify(ext));
+    assertRefusedByEveryCommand(st, path.join(dir, 'empty_external.gltf'), 2, /buffers\[0\]: "empty\.bin" holds 0 bytes, not the declared byteLength 44/);
+    const b64 = m.bin.toString('base64');
+    for (const [name, uri, needle] of [['data_longer.gltf', `data:application/octet-stream;base64,${Buffer.concat([m.bin, Buffer.alloc(3)]).toString('base64')}`, /buffers\[0\]\.uri holds 47 bytes, not the declared byteLength 44/],
+      ['data_not_base64.gltf', `data:application/octet-stream;base64,${b64.slice(0, 8)}!${b64.slice(9)}`, /buffers\[0\]\.uri is not valid base64 \(at character 45\)/],
+      ['data_type.gltf', `data:application/x-foo;base64,${b64}`, /buffers\[0\]\.uri is a data: uri of type "application\/x-foo"/]]) {
+      const d = JSON.parse(JSON.stringify(m.json));
+      d.buffers[0].uri = uri;
+      fs.writeFileSync(path.join(dir, name), JSON.stringify(d));
+      assertRefusedByEveryCommand(st, path.join(dir, name), 2, needle);
+    }
+    // An empty BIN chunk no buffer reads is only a validator notice (GLB_EMPTY_BIN_CHUNK): the file is read.
+    const embedded = JSON.parse(JSON.stringify(m.json));
+    embedded.buffers[0].uri = `data:application/octet-stream;base64,${b64}`;
+    const unused = path.join(dir, 'empty_bin_unused.glb');
+    writeGlbChunks(unused, [[CHUNK_JSON, jsonChunk(embedded)], [CHUNK_BIN, Buffer.alloc(0)]]);
+    const out = path.join(tempDir(st), 'out.glb');
+    const r = runLodpipe(['convert', unused, out]);
+    assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
+  });
 });
 
 // ---------------------------------------------------------------------------------------------

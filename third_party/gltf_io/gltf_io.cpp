@@ -732,25 +732,99 @@ std::string external_file_of(const std::string &where, const std::string &uri, c
     return full;
 }
 
-// Checks everything tinygltf would index: buffer lengths and uris, bufferView
-// ranges against their buffers, images against bufferViews.
-void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, const std::string &dir)
+[[noreturn]] void fail_byte_length(const std::string &where, uint64_t holds, uint64_t declared)
+{
+    fail(GLTF_INVALID, where + " holds " + std::to_string(holds) + " bytes, not the declared byteLength " +
+                           std::to_string(declared));
+}
+
+// The bytes the base64 payload of a data: uri decodes to, or -1 when it is not
+// base64 (a character outside the alphabet, '=' other than one or two at the
+// end, a length no base64 text has): tinygltf's decoder would stop at the
+// first such character and hand over a shorter buffer. *bad is the offset of
+// the first wrong character in the payload.
+int64_t base64_decoded_size(const std::string &payload, size_t *bad)
+{
+    size_t n = payload.size(), pad = 0;
+    while (pad < 2 && n > 0 && payload[n - 1] == '=') --n, ++pad;
+    for (size_t i = 0; i < n; ++i) {
+        const char c = payload[i];
+        const bool alnum = (c >= '0' && c <= '9') || (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z');
+        if (!alnum && c != '+' && c != '/') {
+            *bad = i;
+            return -1;
+        }
+    }
+    *bad = n;
+    if (n % 4 == 1 || (pad && (n + pad) % 4)) return -1;
+    return int64_t(n / 4 * 3 + (n % 4 ? n % 4 - 1 : 0));
+}
+
+// The data: uri prefixes tinygltf decodes for a buffer (any other it fails on
+// with its own message, the whole uri in it).
+const char *const kBufferDataUriPrefixes[] = {
+    "data:application/octet-stream;base64,", "data:application/gltf-buffer;base64,", "data:image/jpeg;base64,",
+    "data:image/png;base64,", "data:image/bmp;base64,", "data:image/gif;base64,", "data:text/plain;base64,"};
+
+// A buffer's data: uri must decode to exactly byteLength bytes, as tinygltf requires.
+void check_buffer_data_uri(const std::string &where, const std::string &uri, uint64_t declared)
+{
+    require_base64_data_uri(where, uri);
+    size_t prefix = 0;
+    for (const char *p : kBufferDataUriPrefixes)
+        if (uri.compare(0, strlen(p), p) == 0) prefix = strlen(p);
+    if (!prefix)
+        fail(GLTF_INVALID, where + ".uri is a data: uri of type \"" + uri.substr(5, uri.find(';') - 5) +
+                               "\" (a buffer's is application/octet-stream or application/gltf-buffer)");
+    size_t bad = 0;
+    const int64_t size = base64_decoded_size(uri.substr(prefix), &bad);
+    if (size < 0) fail(GLTF_INVALID, where + ".uri is not valid base64 (at character " + std::to_string(prefix + bad) + ")");
+    if (uint64_t(size) != declared) fail_byte_length(where + ".uri", uint64_t(size), declared);
+}
+
+// Checks that every buffer's source gives tinygltf exactly what it declares
+// (tinygltf indexes an empty buffer unchecked and words its refusals with the
+// whole uri): a byteLength of at least 1 (the schema's minimum); for a buffer
+// without a uri, a GLB whose BIN chunk holds at least byteLength bytes (the
+// spec gives the chunk to buffers[0] alone, but tinygltf and the validator
+// read it for any such buffer, and so does lodpipe); a base64 data: uri
+// decoding to byteLength bytes; an external file of byteLength bytes.
+void check_buffer_sources(const ojson &root, bool glb, const uint8_t *bin, size_t bin_size,
+                          const gltf_load_options &opt, const std::string &dir)
 {
     const ojson &buffers = array_of(root, "buffers");
     for (size_t b = 0; b < buffers.size(); ++b) {
-        if (!buffers[b].contains("byteLength")) fail(GLTF_INVALID, at("buffers", b) + ".byteLength is missing");
-        if (buffers[b].contains("uri") && !is_meshopt_fallback(buffers[b])) {
-            const std::string uri = buffers[b]["uri"].get<std::string>();
-            if (is_data_uri(uri)) {
-                require_base64_data_uri(at("buffers", b), uri);
-            } else {
-                const std::string full = external_file_of(at("buffers", b), uri, opt, dir);
-                const uint64_t size = require_regular_file(full, at("buffers", b), uri);
-                uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
-                if (size > cap) fail(GLTF_INVALID, at("buffers", b) + ": \"" + uri + "\" is too large");
-            }
+        const std::string where = at("buffers", b);
+        if (!buffers[b].contains("byteLength")) fail(GLTF_INVALID, where + ".byteLength is missing");
+        const uint64_t declared = u64(buffers[b], "byteLength", 0);
+        if (declared == 0) fail(GLTF_INVALID, where + ".byteLength is 0 (a buffer holds at least 1 byte)");
+        if (is_meshopt_fallback(buffers[b])) continue;
+        if (!buffers[b].contains("uri")) {
+            if (!glb) fail(GLTF_INVALID, where + " has no uri (only a GLB's buffer may omit it, for the BIN chunk)");
+            if (!bin) fail(GLTF_INVALID, where + " refers to the GLB BIN chunk, but there is none");
+            if (bin_size < declared)
+                fail(GLTF_INVALID, where + " declares " + std::to_string(declared) + " bytes, but the GLB BIN chunk holds " +
+                                       std::to_string(bin_size));
+            continue;
+        }
+        const std::string uri = buffers[b]["uri"].get<std::string>();
+        if (is_data_uri(uri)) {
+            check_buffer_data_uri(where, uri, declared);
+        } else {
+            const std::string full = external_file_of(where, uri, opt, dir);
+            const uint64_t size = require_regular_file(full, where, uri);
+            uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
+            if (size > cap) fail(GLTF_INVALID, where + ": \"" + uri + "\" is too large");
+            if (size != declared) fail_byte_length(where + ": \"" + uri + "\"", size, declared);
         }
     }
+}
+
+// Checks everything else tinygltf would index: bufferView ranges against their
+// buffers, images against bufferViews.
+void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, const std::string &dir)
+{
+    const ojson &buffers = array_of(root, "buffers");
     const ojson &views = array_of(root, "bufferViews");
     for (size_t v = 0; v < views.size(); ++v) {
         const ojson &view = views[v];
@@ -1275,12 +1349,11 @@ void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_
     check_object(doc->json, doc->json, kRoot, "");
     check_local_references(doc->json);
     check_attribute_maps(doc->json);
+    check_buffer_sources(doc->json, glb, bin, bin_size, opt, doc->dir);
     check_buffers_and_views(doc->json, opt, doc->dir);
-    if (glb) {
-        const ojson &buffers = array_of(doc->json, "buffers");
-        if (!buffers.empty() && !buffers[0].contains("uri") && !is_meshopt_fallback(buffers[0]) && !bin)
-            fail(GLTF_INVALID, "buffers[0] refers to the GLB BIN chunk, but there is none");
-    }
+    // An empty BIN chunk holds nothing a buffer could use (the checks above
+    // refuse buffers[0] reading it); tinygltf refuses one, so it is left out.
+    if (bin_size == 0) bin = nullptr;
     load_with_tinygltf(doc, doc->json, glb, bin, bin_size);
     resolve_views(doc);
     mark_referenced_views(doc);
