@@ -468,6 +468,32 @@ test('malformed containers and buffers: one line in lodpipe\'s words, from every
     const r = runLodpipe(['convert', unused, out]);
     assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
   });
+
+  // A uri was quoted whole: a 5,000-character data: uri (by tinygltf) or file name filled the terminal. A string
+  // of the file is shown up to its 60th byte, then "..."; an image's bad data: uri is the loader's error too.
+  await t.test('a long uri is quoted up to 60 bytes; a bad image data: uri -> exit 2 in lodpipe\'s words', (st) => {
+    const m = triangleModel();
+    const long = 'x'.repeat(3000);
+    const embedded = `data:application/octet-stream;base64,${m.bin.toString('base64')}`;
+    const cases = [['missing.gltf', { buffer: `${long}.bin` }, 4, /buffers\[0\]: cannot read "x{60}\.\.\."$/m],
+      ['escape.gltf', { buffer: `../${long}.bin` }, 2, /buffers\[0\]\.uri "\.\.\/x{57}\.\.\." points outside the input's folder/],
+      ['bad_base64.gltf', { buffer: `data:application/octet-stream;base64,${'!'.repeat(5000)}` }, 2, /buffers\[0\]\.uri is not valid base64 \(at character 37\)$/m],
+      ['long_type.gltf', { buffer: `data:${long};base64,AAAA` }, 2, /buffers\[0\]\.uri is a data: uri of type "x{60}\.\.\." /],
+      ['bad_image.gltf', { buffer: embedded, image: `data:image/png;base64,${'!'.repeat(5000)}` }, 2, /images\[0\]\.uri is not valid base64 \(at character 22\)$/m],
+      ['empty_image.gltf', { buffer: embedded, image: 'data:image/png;base64,' }, 2, /images\[0\]\.uri holds no data$/m]];
+    for (const [name, uris, code, needle] of cases) {
+      const j = JSON.parse(JSON.stringify(m.json));
+      j.buffers[0].uri = uris.buffer;
+      if (uris.image) j.images = [{ uri: uris.image }];
+      const sub = path.join(dir, 'long', 'in');
+      fs.mkdirSync(sub, { recursive: true });
+      const f = path.join(sub, name);
+      fs.writeFileSync(f, JSON.stringify(j));
+      assertRefusedByEveryCommand(st, f, code, needle);
+      const r = runLodpipe(['inspect', f]);
+      assert.ok(r.stderr.length < f.length + 200, `a short line: ${r.stderr.length} characters`);
+    }
+  });
 });
 
 // ---------------------------------------------------------------------------------------------

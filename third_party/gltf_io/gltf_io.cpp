@@ -78,6 +78,21 @@ struct Failure {
 
 std::string at(const char *array, size_t i) { return std::string(array) + "[" + std::to_string(i) + "]"; }
 
+// Text from the file shown in a message, cut after `limit` bytes (at a UTF-8
+// character's start) with "...": a uri may be a megabyte of base64 or a name
+// thousands of bytes long, and an error is one readable line.
+std::string clipped(const std::string &text, size_t limit)
+{
+    if (text.size() <= limit) return text;
+    size_t n = limit;
+    while (n > 0 && (static_cast<unsigned char>(text[n]) & 0xC0) == 0x80) --n;
+    return text.substr(0, n) + "...";
+}
+
+// A string of the file (a uri, a pointer, a name) quoted in a message: its
+// first 60 bytes, enough to recognise it.
+std::string quoted(const std::string &text) { return "\"" + clipped(text, 60) + "\""; }
+
 // ---- schema: the types of every property glTF 2.0 defines -----------------------
 
 enum Kind { UINT, NUM, STR, BOOL, OBJ, ARR, ARR_UINT, ARR_NUM, ARR_STR, ARR_OBJ, ANY };
@@ -279,8 +294,8 @@ void check_local_references(const ojson &root)
                 while (end < ptr.size() && ptr[end] >= '0' && ptr[end] <= '9' && index < (uint64_t(1) << 40))
                     index = index * 10 + uint64_t(ptr[end++] - '0');
                 if (end > prefix.size() && index >= root_count(root, array))
-                    fail(GLTF_INVALID, path + ".target.extensions.KHR_animation_pointer.pointer \"" + ptr +
-                                           "\" names an element that does not exist (" +
+                    fail(GLTF_INVALID, path + ".target.extensions.KHR_animation_pointer.pointer " + quoted(ptr) +
+                                           " names an element that does not exist (" +
                                            std::to_string(root_count(root, array)) + " " + array + ")");
             }
         }
@@ -439,8 +454,8 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
 uint64_t require_regular_file(const std::string &full, const std::string &what, const std::string &uri)
 {
     struct stat st;
-    if (stat(full.c_str(), &st) != 0) fail(GLTF_IO, what + ": cannot read \"" + uri + "\"");
-    if (!S_ISREG(st.st_mode)) fail(GLTF_IO, what + ": cannot read \"" + uri + "\" (not a regular file)");
+    if (stat(full.c_str(), &st) != 0) fail(GLTF_IO, what + ": cannot read " + quoted(uri));
+    if (!S_ISREG(st.st_mode)) fail(GLTF_IO, what + ": cannot read " + quoted(uri) + " (not a regular file)");
     return uint64_t(st.st_size);
 }
 
@@ -694,7 +709,7 @@ void check_asset_and_extensions(const ojson &root)
     if (!ver->is_string()) fail(GLTF_INVALID, "asset.version must be a string such as \"2.0\"");
     const std::string v = ver->get<std::string>();
     if (v.size() < 2 || v[0] != '2' || v[1] != '.')
-        fail(GLTF_INVALID, "asset.version is \"" + v + "\"; only glTF 2.0 is supported");
+        fail(GLTF_INVALID, "asset.version is " + quoted(v) + "; only glTF 2.0 is supported");
     auto required = root.find("extensionsRequired");
     if (required == root.end()) return;
     if (!kind_ok(*required, ARR_STR)) fail(GLTF_INVALID, "extensionsRequired must be an array of strings");
@@ -702,7 +717,7 @@ void check_asset_and_extensions(const ojson &root)
         const std::string n = name.get<std::string>();
         bool known = false;
         for (const char *s : kSupportedRequired) known = known || n == s;
-        if (!known) fail(GLTF_INVALID, "extensionsRequired lists \"" + n + "\", which lodpipe does not support");
+        if (!known) fail(GLTF_INVALID, "extensionsRequired lists " + quoted(n) + ", which lodpipe does not support");
     }
 }
 
@@ -724,11 +739,11 @@ std::string external_file_of(const std::string &where, const std::string &uri, c
     if (uri.empty()) fail(GLTF_INVALID, where + ".uri is empty");
     const std::string decoded = tinygltf::dlib::urldecode(uri);
     if (decoded.find('\0') != std::string::npos)
-        fail(GLTF_INVALID, where + ".uri \"" + uri + "\" decodes to a name with a NUL byte (%00)");
+        fail(GLTF_INVALID, where + ".uri " + quoted(uri) + " decodes to a name with a NUL byte (%00)");
     if (!opt.allow_external_uris && uri_escapes(uri, decoded))
-        fail(GLTF_INVALID, where + ".uri \"" + uri + "\" points outside the input's folder (use --allow-external-uris)");
+        fail(GLTF_INVALID, where + ".uri " + quoted(uri) + " points outside the input's folder (use --allow-external-uris)");
     const std::string full = resolve_uri(dir, uri);
-    if (full.empty()) fail(GLTF_IO, where + ": cannot read \"" + uri + "\" (not a local file)");
+    if (full.empty()) fail(GLTF_IO, where + ": cannot read " + quoted(uri) + " (not a local file)");
     return full;
 }
 
@@ -766,20 +781,30 @@ const char *const kBufferDataUriPrefixes[] = {
     "data:application/octet-stream;base64,", "data:application/gltf-buffer;base64,", "data:image/jpeg;base64,",
     "data:image/png;base64,", "data:image/bmp;base64,", "data:image/gif;base64,", "data:text/plain;base64,"};
 
-// A buffer's data: uri must decode to exactly byteLength bytes, as tinygltf requires.
-void check_buffer_data_uri(const std::string &where, const std::string &uri, uint64_t declared)
+// The bytes a data: uri's base64 payload decodes to; a payload that is not
+// base64 is refused here (tinygltf failed on it with the whole uri in its
+// message, or for an image without saying which character).
+uint64_t data_uri_bytes(const std::string &where, const std::string &uri)
 {
     require_base64_data_uri(where, uri);
-    size_t prefix = 0;
-    for (const char *p : kBufferDataUriPrefixes)
-        if (uri.compare(0, strlen(p), p) == 0) prefix = strlen(p);
-    if (!prefix)
-        fail(GLTF_INVALID, where + ".uri is a data: uri of type \"" + uri.substr(5, uri.find(';') - 5) +
-                               "\" (a buffer's is application/octet-stream or application/gltf-buffer)");
+    const size_t start = uri.find(',') + 1;
     size_t bad = 0;
-    const int64_t size = base64_decoded_size(uri.substr(prefix), &bad);
-    if (size < 0) fail(GLTF_INVALID, where + ".uri is not valid base64 (at character " + std::to_string(prefix + bad) + ")");
-    if (uint64_t(size) != declared) fail_byte_length(where + ".uri", uint64_t(size), declared);
+    const int64_t size = base64_decoded_size(uri.substr(start), &bad);
+    if (size < 0) fail(GLTF_INVALID, where + ".uri is not valid base64 (at character " + std::to_string(start + bad) + ")");
+    return uint64_t(size);
+}
+
+// A buffer's data: uri must be of a type tinygltf decodes and hold exactly
+// byteLength bytes, as tinygltf requires.
+void check_buffer_data_uri(const std::string &where, const std::string &uri, uint64_t declared)
+{
+    const uint64_t size = data_uri_bytes(where, uri);
+    bool known = false;
+    for (const char *p : kBufferDataUriPrefixes) known = known || uri.compare(0, strlen(p), p) == 0;
+    if (!known)
+        fail(GLTF_INVALID, where + ".uri is a data: uri of type " + quoted(uri.substr(5, uri.find(';') - 5)) +
+                               " (a buffer's is application/octet-stream or application/gltf-buffer)");
+    if (size != declared) fail_byte_length(where + ".uri", size, declared);
 }
 
 // Checks that every buffer's source gives tinygltf exactly what it declares
@@ -814,8 +839,8 @@ void check_buffer_sources(const ojson &root, bool glb, const uint8_t *bin, size_
             const std::string full = external_file_of(where, uri, opt, dir);
             const uint64_t size = require_regular_file(full, where, uri);
             uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
-            if (size > cap) fail(GLTF_INVALID, where + ": \"" + uri + "\" is too large");
-            if (size != declared) fail_byte_length(where + ": \"" + uri + "\"", size, declared);
+            if (size > cap) fail(GLTF_INVALID, where + ": " + quoted(uri) + " is too large");
+            if (size != declared) fail_byte_length(where + ": " + quoted(uri), size, declared);
         }
     }
 }
@@ -865,8 +890,8 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
             if (has_ext(views[v], kMeshopt)) fail(GLTF_INVALID, path + " is stored in a meshopt-compressed bufferView");
         } else if (images[i].contains("uri")) {
             const std::string uri = images[i]["uri"].get<std::string>();
-            if (is_data_uri(uri)) require_base64_data_uri(path, uri);
-            else require_regular_file(external_file_of(path, uri, opt, dir), path, uri);
+            if (!is_data_uri(uri)) require_regular_file(external_file_of(path, uri, opt, dir), path, uri);
+            else if (data_uri_bytes(path, uri) == 0) fail(GLTF_INVALID, path + ".uri holds no data");
         }
     }
 }
@@ -936,7 +961,7 @@ void load_with_tinygltf(gltf_doc *doc, const ojson &root, bool glb, const uint8_
         std::string first = err.substr(0, err.find('\n'));
         bool io = first.find("File not found") != std::string::npos || first.find("Failed to load") != std::string::npos ||
                   first.find("File open error") != std::string::npos || first.find("not found") != std::string::npos;
-        fail(io ? GLTF_IO : GLTF_INVALID, first.empty() ? "tinygltf could not load the file" : first);
+        fail(io ? GLTF_IO : GLTF_INVALID, first.empty() ? "tinygltf could not load the file" : clipped(first, 160));
     }
     const ojson &buffers = array_of(root, "buffers");
     if (doc->model.buffers.size() != buffers.size()) fail(GLTF_INVALID, "buffers could not all be loaded");
@@ -952,7 +977,7 @@ void load_with_tinygltf(gltf_doc *doc, const ojson &root, bool glb, const uint8_
         const std::string uri = images[i]["uri"].get<std::string>();
         if (is_data_uri(uri)) continue;
         if (doc->model.images[i].image.empty())
-            fail(GLTF_IO, at("images", i) + ": cannot read \"" + uri + "\"");
+            fail(GLTF_IO, at("images", i) + ": cannot read " + quoted(uri));
         doc->external_images[i] = doc->model.images[i].image;
     }
 }
@@ -991,7 +1016,7 @@ void decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view)
         } else if (rc == 0 && filter == "EXPONENTIAL") {
             meshopt_decodeFilterExp(out.owned.data(), size_t(count), size_t(stride));
         } else if (rc == 0 && filter != "NONE") {
-            fail(GLTF_INVALID, path + ": unknown meshopt filter \"" + filter + "\"");
+            fail(GLTF_INVALID, path + ": unknown meshopt filter " + quoted(filter));
         }
     } else if (mode == "TRIANGLES" || mode == "INDICES") {
         if (stride != 2 && stride != 4) fail(GLTF_INVALID, path + ": meshopt index byteStride must be 2 or 4");
@@ -1002,7 +1027,7 @@ void decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view)
             rc = meshopt_decodeIndexSequence(out.owned.data(), size_t(count), size_t(stride), in, in_len);
         }
     } else {
-        fail(GLTF_INVALID, path + ": unknown meshopt mode \"" + mode + "\"");
+        fail(GLTF_INVALID, path + ": unknown meshopt mode " + quoted(mode));
     }
     if (rc != 0) fail(GLTF_INVALID, path + ": EXT_meshopt_compression data does not decode (corrupt stream)");
     out.ptr = out.owned.data();
@@ -1340,7 +1365,7 @@ void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_
         // doubles, so it could only come out changed. Refused, saying where.
         ParseFailure at;
         ojson::sax_parse(text, &at);
-        std::string number = at.token.size() > 40 ? at.token.substr(0, 40) + "..." : at.token;
+        std::string number = clipped(at.token, 40);
         fail(GLTF_INVALID, "JSON has a number beyond the range of a double (" + number + ") at byte " +
                                std::to_string(at.byte - at.token.size()) + " of the JSON");
     }
