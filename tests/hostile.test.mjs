@@ -494,6 +494,23 @@ test('malformed containers and buffers: one line in lodpipe\'s words, from every
       assert.ok(r.stderr.length < f.length + 200, `a short line: ${r.stderr.length} characters`);
     }
   });
+
+  // The meshopt decoder read mode and filter as strings: a number there threw nlohmann's
+  // "[json.exception.type_error.302] type must be string, but is number".
+  await t.test('EXT_meshopt_compression mode or filter not a string -> exit 2 naming the property', (st) => {
+    const { json, bin } = parseGlb(fs.readFileSync(corpusPath('compressed/BoxMeshopt.glb')));
+    const v = json.bufferViews.findIndex((x) => x.extensions?.EXT_meshopt_compression?.mode === 'ATTRIBUTES');
+    const where = `bufferViews\\[${v}\\]\\.extensions\\.EXT_meshopt_compression`;
+    for (const [name, edit, needle] of [['mode_number.glb', (m) => { m.mode = 0; }, `${where}\\.mode is missing or not a string`],
+      ['mode_missing.glb', (m) => { delete m.mode; }, `${where}\\.mode is missing or not a string`],
+      ['filter_number.glb', (m) => { m.filter = 1; }, `${where}\\.filter must be a string`]]) {
+      const j = JSON.parse(JSON.stringify(json));
+      edit(j.bufferViews[v].extensions.EXT_meshopt_compression);
+      const f = path.join(dir, name);
+      writeGlb(f, j, Buffer.from(bin));
+      assertRefusedByEveryCommand(st, f, 2, new RegExp(needle));
+    }
+  });
 });
 
 // ---------------------------------------------------------------------------------------------

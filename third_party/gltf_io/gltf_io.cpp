@@ -872,6 +872,9 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
             for (const char *key : {"buffer", "byteLength", "byteStride", "count"})
                 if (!m.contains(key) || !is_uint(m[key])) fail(GLTF_INVALID, path + ".extensions." + kMeshopt + "." + key + " is missing or not a non-negative integer");
             if (m.contains("byteOffset") && !is_uint(m["byteOffset"])) fail(GLTF_INVALID, path + ".extensions." + kMeshopt + ".byteOffset must be a non-negative integer");
+            // decode_meshopt_view reads these as strings (a number there threw nlohmann's type_error)
+            if (!m.contains("mode") || !m["mode"].is_string()) fail(GLTF_INVALID, path + ".extensions." + kMeshopt + ".mode is missing or not a string");
+            if (m.contains("filter") && !m["filter"].is_string()) fail(GLTF_INVALID, path + ".extensions." + kMeshopt + ".filter must be a string");
             uint64_t mb = u64(m, "buffer", 0), mo = u64(m, "byteOffset", 0), ml = u64(m, "byteLength", 0);
             if (mb >= buffers.size() || is_meshopt_fallback(buffers[mb]))
                 fail(GLTF_INVALID, path + ": the compressed data's buffer " + std::to_string(mb) + " is missing");
@@ -1418,8 +1421,18 @@ template <typename F> int guarded_load(F &&run, gltf_doc **out, char *err, size_
         snprintf(err, errlen, "out of memory while loading");
         delete doc;
         return GLTF_INVALID;
+    } catch (const std::out_of_range &) {
+        // vector::at and friends: a check above missed an index; their text
+        // (_M_range_check) means nothing to the user
+        snprintf(err, errlen, "malformed glTF (an index or size out of range)");
+        delete doc;
+        return GLTF_INVALID;
     } catch (const std::exception &e) {
-        snprintf(err, errlen, "malformed glTF (%s)", e.what());
+        // nlohmann's type errors start with "[json.exception.type_error.302] "
+        std::string what = e.what();
+        if (what.compare(0, 16, "[json.exception.") == 0 && what.find("] ") != std::string::npos)
+            what = what.substr(what.find("] ") + 2);
+        snprintf(err, errlen, "malformed glTF (%s)", clipped(what, 160).c_str());
         delete doc;
         return GLTF_INVALID;
     }
