@@ -779,6 +779,19 @@ test('non-regular files: a piped input is read; directories, FIFOs and devices a
       });
     }
   }
+  // Opening a named pipe waits for a writer: `lodpipe f.glb -o out.glb` on a stray mkfifo blocked forever. It is
+  // refused before it is opened; the anonymous pipes of `|` and `<(...)` (above) are still read.
+  await t.test('a named pipe (mkfifo) as input -> exit 4 at once, "not a regular file", from every command', (st) => {
+    const dir = tempDir(st);
+    const fifo = path.join(dir, 'f.glb');
+    assert.equal(spawnSync('mkfifo', [fifo]).status, 0);
+    for (const args of [[fifo, '-o', path.join(dir, 'out.glb')], ['inspect', fifo], ['convert', fifo, path.join(dir, 'out.glb')], ['check', fifo]]) {
+      const r = runLodpipe(args, { timeout: 20000 });
+      const p = refusalProblems(r, 4, 'f.glb', dir, ['f.glb']);
+      if (!/f\.glb: is not a regular file \(a named pipe, FIFO\)$/m.test(r.stderr)) p.push('stderr does not say "is not a regular file (a named pipe, FIFO)"');
+      assert.deepEqual(p, [], `${args[0]}: ${describeRun(r)}`);
+    }
+  });
   await t.test('a device as input -> exit 4 without reading it', (st) => {
     const dir = tempDir(st);
     const r = runLodpipe(['/dev/zero', '-o', path.join(dir, 'out.glb')], { timeout: 60000 });

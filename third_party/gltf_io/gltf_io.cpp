@@ -22,8 +22,10 @@
 #include <meshoptimizer.h>
 #include <nlohmann/json.hpp>
 
+#include <fcntl.h>
 #include <strings.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -394,13 +396,43 @@ void erase_ext(ojson &o, const char *name)
     if (e->empty()) o.erase("extensions");
 }
 
-// Reads the input file whole into *out. A pipe (`lodpipe <(...)`, /dev/stdin)
-// and a file whose size stat does not know (/proc) are read to their end; a
-// directory or a device is refused (reading /dev/zero would never end). On
-// failure *why says what went wrong and *code its class, whatever errno an
-// earlier call left: GLTF_IO when the file cannot be read as one (missing,
-// unreadable, a directory or a device), GLTF_INVALID when it is larger than
-// cap (a loader limit, not an I/O error).
+// Whether st is an anonymous pipe (what `cmd | lodpipe /dev/stdin` and
+// `lodpipe <(cmd)` hand over): it lives on the kernel's pipe file system, the
+// one a pipe() of our own lives on; a named pipe (mkfifo) lives in a folder's.
+bool is_anonymous_pipe(const struct stat &st)
+{
+    if (!S_ISFIFO(st.st_mode)) return false;
+    int fds[2];
+    if (pipe(fds) != 0) return false;
+    struct stat own;
+    const bool same = fstat(fds[0], &own) == 0 && own.st_dev == st.st_dev;
+    close(fds[0]);
+    close(fds[1]);
+    return same;
+}
+
+// Why the input at st cannot be read as a file, or "" when it can: a regular
+// file or an anonymous pipe. A named pipe is refused: opening it waits for a
+// writer, so a stray FIFO would hang a build forever; a device may never end
+// (/dev/zero).
+std::string unreadable_kind(const struct stat &st)
+{
+    if (S_ISREG(st.st_mode) || is_anonymous_pipe(st)) return "";
+    if (S_ISDIR(st.st_mode)) return "is a directory";
+    if (S_ISFIFO(st.st_mode)) return "is not a regular file (a named pipe, FIFO)";
+    if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) return "is not a regular file (a device)";
+    return "is not a regular file";
+}
+
+// Reads the input file whole into *out. A regular file, or an anonymous pipe
+// (`lodpipe <(curl ...)`, `... | lodpipe /dev/stdin`) read to its end, are
+// accepted; a directory, a named pipe or a device is refused without waiting
+// (see unreadable_kind): the path is looked at before it is opened, and what
+// was opened (without blocking) is looked at again, in case the name changed
+// in between. On failure *why says what went wrong and *code its class,
+// whatever errno an earlier call left: GLTF_IO when the file cannot be read
+// as one, GLTF_INVALID when it is larger than cap (a loader limit, not an I/O
+// error).
 bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out, std::string *why, int *code)
 {
     *code = GLTF_IO;
@@ -409,24 +441,32 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
         *why = std::string("cannot read (") + strerror(errno) + ")";
         return false;
     }
-    if (S_ISDIR(st.st_mode)) {
-        *why = "is a directory";
-        return false;
-    }
-    if (!S_ISREG(st.st_mode) && !S_ISFIFO(st.st_mode)) {
-        *why = "cannot read (not a regular file or a pipe)";
-        return false;
-    }
+    if (!(*why = unreadable_kind(st)).empty()) return false;
     const std::string too_large = "is larger than the " + std::to_string(cap) + "-byte limit";
     if (uint64_t(st.st_size) > cap) {
         *why = too_large;
         *code = GLTF_INVALID;
         return false;
     }
+    const int fd = open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) {
+        *why = std::string("cannot read (") + strerror(errno) + ")";
+        return false;
+    }
     // closed on every way out, an allocation failure's exception included
-    std::unique_ptr<FILE, int (*)(FILE *)> file(fopen(path.c_str(), "rb"), fclose);
+    std::unique_ptr<FILE, int (*)(FILE *)> file(fdopen(fd, "rb"), fclose);
     FILE *f = file.get();
     if (!f) {
+        *why = std::string("cannot read (") + strerror(errno) + ")";
+        close(fd);
+        return false;
+    }
+    if (fstat(fd, &st) != 0 || !(*why = unreadable_kind(st)).empty()) {
+        if (why->empty()) *why = std::string("cannot read (") + strerror(errno) + ")";
+        return false;
+    }
+    // reads wait again: a pipe's writer may be slower than lodpipe
+    if (fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK) != 0) {
         *why = std::string("cannot read (") + strerror(errno) + ")";
         return false;
     }
