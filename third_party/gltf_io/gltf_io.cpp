@@ -50,18 +50,24 @@ const uint64_t kDefaultMaxFileBytes = 2ull << 30; // 2 GiB
 // stack. glTF itself nests about 8 levels; extras get the rest.
 const size_t kMaxJsonDepth = 512;
 const size_t kMaxJsonMembers = 16384; // members of one JSON object (json_shape_problem)
-// Largest decoded / compressed size ratio accepted from EXT_meshopt_compression (the
+// Largest decoded / compressed size ratio accepted from meshopt compression (the
 // codecs of libmeshoptimizer 0.18 stay below 64; room left for later versions).
 const uint64_t kMeshoptMaxExpansion = 4096;
 const char *kDraco = "KHR_draco_mesh_compression";
 const char *kMeshopt = "EXT_meshopt_compression";
+// The ratified version of the same extension: the same bufferView and fallback
+// objects, its version-0 streams EXT's very bitstream, so both names go through
+// one decoder. It adds version-1 attribute streams and the COLOR filter, which
+// only a newer libmeshoptimizer decodes (see meshopt_unsupported).
+const char *kMeshoptKhr = "KHR_meshopt_compression";
+const char *const kMeshoptNames[] = {kMeshopt, kMeshoptKhr};
 
 // Extensions lodpipe can honour when a file lists them as required: the ones it
 // decodes, the quantization it reads, those that only concern data it passes
 // through untouched (materials, textures, lights, instancing), and those the LOD
 // chain carries over to its levels (animation pointers, node visibility).
 const char *const kSupportedRequired[] = {
-    "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_mesh_quantization",
+    "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression", "KHR_mesh_quantization",
     "KHR_texture_transform", "KHR_texture_basisu", "EXT_texture_webp", "EXT_texture_avif",
     "KHR_materials_unlit", "KHR_materials_pbrSpecularGlossiness", "KHR_materials_emissive_strength",
     "KHR_materials_clearcoat", "KHR_materials_transmission", "KHR_materials_volume",
@@ -671,6 +677,7 @@ struct gltf_doc {
     std::vector<std::string> names[GLTF_KIND_COUNT];
     std::vector<std::string> ext_used, ext_required;
     std::vector<std::string> external_files; // files the load read besides the input (gltf_external_file)
+    std::vector<uint8_t> fallback_read; // per buffer: a meshopt fallback whose data a view uses (resolve_views)
     bool binary_released = false; // gltf_release_binary was called: no bytes to read or write
 
     // gltf_accessor_refs' counts for every accessor, computed in one walk of
@@ -761,12 +768,26 @@ void check_asset_and_extensions(const ojson &root)
     }
 }
 
+// Whether a buffer is marked as a meshopt fallback (under either name): only
+// compressed views read it, and it may hold no data. Compared, not converted: a
+// "fallback" that is not a boolean is no mark (value<bool> threw on it).
 bool is_meshopt_fallback(const ojson &buffer)
 {
     auto e = buffer.find("extensions");
-    if (e == buffer.end()) return false;
-    auto m = e->find(kMeshopt);
-    return m != e->end() && m->is_object() && m->value("fallback", false) == true;
+    if (e == buffer.end() || !e->is_object()) return false;
+    for (const char *name : kMeshoptNames) {
+        auto m = e->find(name);
+        if (m != e->end() && m->is_object() && m->contains("fallback") && (*m)["fallback"] == true) return true;
+    }
+    return false;
+}
+
+// The meshopt extension a bufferView carries (EXT or KHR), or nullptr.
+const char *meshopt_name(const ojson &view)
+{
+    for (const char *name : kMeshoptNames)
+        if (has_ext(view, name)) return name;
+    return nullptr;
 }
 
 // The file external uri `uri` of object `where` names, refused when it is
@@ -854,6 +875,32 @@ void check_buffer_data_uri(const std::string &where, const std::string &uri, uin
 // spec gives the chunk to buffers[0] alone, but tinygltf and the validator
 // read it for any such buffer, and so does lodpipe); a base64 data: uri
 // decoding to byteLength bytes; an external file of byteLength bytes.
+// The source of buffers[b] (a uri, or the BIN chunk when it has none) against its byteLength.
+void check_buffer_source(const ojson &buffer, size_t b, bool glb, const uint8_t *bin, size_t bin_size,
+                         const gltf_load_options &opt, const std::string &dir)
+{
+    const std::string where = at("buffers", b);
+    const uint64_t declared = u64(buffer, "byteLength", 0);
+    if (!buffer.contains("uri")) {
+        if (!glb) fail(GLTF_INVALID, where + " has no uri (only a GLB's buffer may omit it, for the BIN chunk)");
+        if (!bin) fail(GLTF_INVALID, where + " refers to the GLB BIN chunk, but there is none");
+        if (bin_size < declared)
+            fail(GLTF_INVALID, where + " declares " + std::to_string(declared) + " bytes, but the GLB BIN chunk holds " +
+                                   std::to_string(bin_size));
+        return;
+    }
+    const std::string uri = buffer["uri"].get<std::string>();
+    if (is_data_uri(uri)) {
+        check_buffer_data_uri(where, uri, declared);
+    } else {
+        const std::string full = external_file_of(where, uri, opt, dir);
+        const uint64_t size = require_regular_file(full, where, uri);
+        uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
+        if (size > cap) fail(GLTF_INVALID, where + ": " + quoted(uri) + " is too large");
+        if (size != declared) fail_byte_length(where + ": " + quoted(uri), size, declared);
+    }
+}
+
 void check_buffer_sources(const ojson &root, bool glb, const uint8_t *bin, size_t bin_size,
                           const gltf_load_options &opt, const std::string &dir)
 {
@@ -863,25 +910,9 @@ void check_buffer_sources(const ojson &root, bool glb, const uint8_t *bin, size_
         if (!buffers[b].contains("byteLength")) fail(GLTF_INVALID, where + ".byteLength is missing");
         const uint64_t declared = u64(buffers[b], "byteLength", 0);
         if (declared == 0) fail(GLTF_INVALID, where + ".byteLength is 0 (a buffer holds at least 1 byte)");
+        // a fallback buffer is read (and checked) only when a view needs it: load_fallback_buffers
         if (is_meshopt_fallback(buffers[b])) continue;
-        if (!buffers[b].contains("uri")) {
-            if (!glb) fail(GLTF_INVALID, where + " has no uri (only a GLB's buffer may omit it, for the BIN chunk)");
-            if (!bin) fail(GLTF_INVALID, where + " refers to the GLB BIN chunk, but there is none");
-            if (bin_size < declared)
-                fail(GLTF_INVALID, where + " declares " + std::to_string(declared) + " bytes, but the GLB BIN chunk holds " +
-                                       std::to_string(bin_size));
-            continue;
-        }
-        const std::string uri = buffers[b]["uri"].get<std::string>();
-        if (is_data_uri(uri)) {
-            check_buffer_data_uri(where, uri, declared);
-        } else {
-            const std::string full = external_file_of(where, uri, opt, dir);
-            const uint64_t size = require_regular_file(full, where, uri);
-            uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
-            if (size > cap) fail(GLTF_INVALID, where + ": " + quoted(uri) + " is too large");
-            if (size != declared) fail_byte_length(where + ": " + quoted(uri), size, declared);
-        }
+        check_buffer_source(buffers[b], b, glb, bin, bin_size, opt, dir);
     }
 }
 
@@ -907,14 +938,19 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
         uint64_t stride = u64(view, "byteStride", 0);
         if (view.contains("byteStride") && (stride < 4 || stride > 252 || stride % 4))
             fail(GLTF_INVALID, path + ".byteStride " + std::to_string(stride) + " is not a multiple of 4 in 4..252");
-        if (has_ext(view, kMeshopt)) {
-            const ojson &m = view["extensions"][kMeshopt];
+        if (const char *name = meshopt_name(view)) {
+            // the KHR specification forbids both on one view: which stream would hold the data?
+            if (has_ext(view, kMeshopt) && has_ext(view, kMeshoptKhr))
+                fail(GLTF_INVALID, path + " has both EXT_meshopt_compression and KHR_meshopt_compression (one is allowed)");
+            const ojson &m = view["extensions"][name];
+            const std::string where = path + ".extensions." + name;
+            if (!m.is_object()) fail(GLTF_INVALID, where + " is not an object");
             for (const char *key : {"buffer", "byteLength", "byteStride", "count"})
-                if (!m.contains(key) || !is_uint(m[key])) fail(GLTF_INVALID, path + ".extensions." + kMeshopt + "." + key + " is missing or not a non-negative integer");
-            if (m.contains("byteOffset") && !is_uint(m["byteOffset"])) fail(GLTF_INVALID, path + ".extensions." + kMeshopt + ".byteOffset must be a non-negative integer");
+                if (!m.contains(key) || !is_uint(m[key])) fail(GLTF_INVALID, where + "." + key + " is missing or not a non-negative integer");
+            if (m.contains("byteOffset") && !is_uint(m["byteOffset"])) fail(GLTF_INVALID, where + ".byteOffset must be a non-negative integer");
             // decode_meshopt_view reads these as strings (a number there threw nlohmann's type_error)
-            if (!m.contains("mode") || !m["mode"].is_string()) fail(GLTF_INVALID, path + ".extensions." + kMeshopt + ".mode is missing or not a string");
-            if (m.contains("filter") && !m["filter"].is_string()) fail(GLTF_INVALID, path + ".extensions." + kMeshopt + ".filter must be a string");
+            if (!m.contains("mode") || !m["mode"].is_string()) fail(GLTF_INVALID, where + ".mode is missing or not a string");
+            if (m.contains("filter") && !m["filter"].is_string()) fail(GLTF_INVALID, where + ".filter must be a string");
             uint64_t mb = u64(m, "buffer", 0), mo = u64(m, "byteOffset", 0), ml = u64(m, "byteLength", 0);
             if (mb >= buffers.size() || is_meshopt_fallback(buffers[mb]))
                 fail(GLTF_INVALID, path + ": the compressed data's buffer " + std::to_string(mb) + " is missing");
@@ -930,7 +966,7 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
         if (images[i].contains("bufferView")) {
             uint64_t v = u64(images[i], "bufferView", 0);
             if (v >= views.size()) fail(GLTF_INVALID, path + ".bufferView " + std::to_string(v) + " does not exist");
-            if (has_ext(views[v], kMeshopt)) fail(GLTF_INVALID, path + " is stored in a meshopt-compressed bufferView");
+            if (meshopt_name(views[v])) fail(GLTF_INVALID, path + " is stored in a meshopt-compressed bufferView");
         } else if (images[i].contains("uri")) {
             const std::string uri = images[i]["uri"].get<std::string>();
             if (!is_data_uri(uri)) require_regular_file(external_file_of(path, uri, opt, dir), path, uri);
@@ -947,16 +983,19 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
 // Every external uri is handed over as the file resolve_uri names (tinygltf is
 // given no folder of its own), so an absolute or file:// uri reads what the
 // checks above looked at.
+void resolve_file_uri(ojson &o, const std::string &dir)
+{
+    if (!o.contains("uri") || !o["uri"].is_string()) return;
+    const std::string uri = o["uri"].get<std::string>();
+    if (!is_data_uri(uri)) o["uri"] = uri_of_name(resolve_uri(dir, uri), true);
+}
+
 ojson json_for_tinygltf(const ojson &root, const std::string &dir)
 {
     ojson reduced = ojson::object();
     for (const char *key : {"asset", "buffers", "bufferViews", "images"})
         if (root.contains(key)) reduced[key] = root[key];
-    auto file_uri = [&](ojson &o) {
-        if (!o.contains("uri") || !o["uri"].is_string()) return;
-        const std::string uri = o["uri"].get<std::string>();
-        if (!is_data_uri(uri)) o["uri"] = uri_of_name(resolve_uri(dir, uri), true);
-    };
+    auto file_uri = [&](ojson &o) { resolve_file_uri(o, dir); };
     auto buffers = reduced.find("buffers");
     if (buffers != reduced.end())
         for (auto &b : *buffers) {
@@ -968,6 +1007,15 @@ ojson json_for_tinygltf(const ojson &root, const std::string &dir)
         for (auto &i : *images)
             if (!i.contains("bufferView")) file_uri(i);
     return reduced;
+}
+
+// tinygltf's refusal as one line: its first, clipped.
+[[noreturn]] void fail_tinygltf(const std::string &err)
+{
+    std::string first = err.substr(0, err.find('\n'));
+    bool io = first.find("File not found") != std::string::npos || first.find("Failed to load") != std::string::npos ||
+              first.find("File open error") != std::string::npos || first.find("not found") != std::string::npos;
+    fail(io ? GLTF_IO : GLTF_INVALID, first.empty() ? "tinygltf could not load the file" : clipped(first, 160));
 }
 
 void load_with_tinygltf(gltf_doc *doc, const ojson &root, bool glb, const uint8_t *bin, size_t bin_size)
@@ -1000,12 +1048,7 @@ void load_with_tinygltf(gltf_doc *doc, const ojson &root, bool glb, const uint8_
     } else {
         ok = loader.LoadASCIIFromString(&doc->model, &err, &warn, text.data(), unsigned(text.size()), "");
     }
-    if (!ok) {
-        std::string first = err.substr(0, err.find('\n'));
-        bool io = first.find("File not found") != std::string::npos || first.find("Failed to load") != std::string::npos ||
-                  first.find("File open error") != std::string::npos || first.find("not found") != std::string::npos;
-        fail(io ? GLTF_IO : GLTF_INVALID, first.empty() ? "tinygltf could not load the file" : clipped(first, 160));
-    }
+    if (!ok) fail_tinygltf(err);
     const ojson &buffers = array_of(root, "buffers");
     if (doc->model.buffers.size() != buffers.size()) fail(GLTF_INVALID, "buffers could not all be loaded");
     for (size_t b = 0; b < buffers.size(); ++b) {
@@ -1025,9 +1068,28 @@ void load_with_tinygltf(gltf_doc *doc, const ojson &root, bool glb, const uint8_
     }
 }
 
-void decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view)
+// libmeshoptimizer's version as its releases name it ("0.18"), for refusals.
+std::string meshopt_library_version()
 {
-    const ojson &m = view["extensions"][kMeshopt];
+    return std::to_string(MESHOPTIMIZER_VERSION / 1000) + "." + std::to_string(MESHOPTIMIZER_VERSION % 1000 / 10);
+}
+
+bool extension_required(const ojson &root, const char *name)
+{
+    for (const ojson &n : array_of(root, "extensionsRequired"))
+        if (n == name) return true;
+    return false;
+}
+
+// Decodes bufferView v's meshopt stream (extension `name`) into its own bytes and
+// drops the extension object. Returns "" when done, or why this build cannot decode
+// a KHR_meshopt_compression stream it has no codec for (a version-1 attribute stream,
+// the COLOR filter): the caller then uses the file's fallback data or refuses.
+// Anything else wrong with the stream is refused here.
+std::string decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view, const char *name)
+{
+    const ojson &m = view["extensions"][name];
+    const bool khr = strcmp(name, kMeshoptKhr) == 0;
     const std::string path = at("bufferViews", v);
     uint64_t stride = u64(m, "byteStride", 0), count = u64(m, "count", 0);
     uint64_t length = u64(view, "byteLength", 0);
@@ -1044,12 +1106,21 @@ void decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view)
     if (length > kMeshoptMaxExpansion * uint64_t(in_len) + 4096)
         fail(GLTF_INVALID, path + ": meshopt declares " + std::to_string(length) + " decoded bytes from " +
                                std::to_string(in_len) + " compressed bytes (no stream expands that much)");
+    // KHR's colour filter came after libmeshoptimizer 0.18, which has no decoder for it
+    if (khr && mode == "ATTRIBUTES" && filter == "COLOR")
+        return "the COLOR filter (libmeshoptimizer " + meshopt_library_version() + " has no decoder for it)";
     ViewBytes &out = doc->views[v];
     out.owned.assign(size_t(length), 0);
     int rc = -1;
     if (mode == "ATTRIBUTES") {
         if (stride % 4 || stride > 256) fail(GLTF_INVALID, path + ": meshopt ATTRIBUTES byteStride must be a multiple of 4 up to 256");
         rc = meshopt_decodeVertexBuffer(out.owned.data(), size_t(count), size_t(stride), in, in_len);
+        // KHR allows version-1 streams (header 0xa1), which a library before 0.23 refuses
+        // like a corrupt one; a newer library decodes them here
+        if (rc != 0 && khr && in_len > 0 && in[0] == 0xa1) {
+            std::vector<uint8_t>().swap(out.owned);
+            return "a version-1 attribute stream (libmeshoptimizer " + meshopt_library_version() + " decodes version 0 only)";
+        }
         if (rc == 0 && filter == "OCTAHEDRAL") {
             if (stride != 4 && stride != 8) fail(GLTF_INVALID, path + ": OCTAHEDRAL filter needs byteStride 4 or 8");
             meshopt_decodeFilterOct(out.owned.data(), size_t(count), size_t(stride));
@@ -1072,25 +1143,81 @@ void decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view)
     } else {
         fail(GLTF_INVALID, path + ": unknown meshopt mode " + quoted(mode));
     }
-    if (rc != 0) fail(GLTF_INVALID, path + ": EXT_meshopt_compression data does not decode (corrupt stream)");
+    if (rc != 0) fail(GLTF_INVALID, path + ": " + name + " data does not decode (corrupt stream)");
     out.ptr = out.owned.data();
     out.size = out.owned.size();
-    erase_ext(view, kMeshopt);
+    erase_ext(view, name);
+    return "";
 }
 
-void resolve_views(gltf_doc *doc)
+// Reads the meshopt fallback buffers in `wanted` (each has a uri), which the first
+// pass stood in for: views whose stream this build cannot decode use their data.
+// Each is checked against its byteLength first, as every other buffer was.
+void load_fallback_buffers(gltf_doc *doc, const std::vector<size_t> &wanted, const gltf_load_options &opt)
+{
+    const ojson &buffers = array_of(doc->json, "buffers");
+    ojson reduced = ojson::object();
+    reduced["asset"] = doc->json["asset"];
+    reduced["buffers"] = ojson::array();
+    for (size_t b : wanted) {
+        check_buffer_source(buffers[b], b, false, nullptr, 0, opt, doc->dir);
+        ojson one = ojson::object();
+        one["byteLength"] = buffers[b]["byteLength"];
+        one["uri"] = buffers[b]["uri"];
+        resolve_file_uri(one, doc->dir);
+        reduced["buffers"].push_back(one);
+    }
+    tinygltf::TinyGLTF loader;
+    tinygltf::Model model;
+    std::string err, warn;
+    const std::string text = reduced.dump();
+    if (!loader.LoadASCIIFromString(&model, &err, &warn, text.data(), unsigned(text.size()), "")) fail_tinygltf(err);
+    if (model.buffers.size() != wanted.size()) fail(GLTF_INVALID, "buffers could not all be loaded");
+    doc->fallback_read.assign(buffers.size(), 0);
+    for (size_t i = 0; i < wanted.size(); ++i) {
+        const uint64_t declared = u64(buffers[wanted[i]], "byteLength", 0);
+        if (model.buffers[i].data.size() != declared)
+            fail_byte_length(at("buffers", wanted[i]), model.buffers[i].data.size(), declared);
+        doc->model.buffers[wanted[i]].data = std::move(model.buffers[i].data);
+        doc->fallback_read[wanted[i]] = 1;
+    }
+}
+
+// Bytes for every bufferView: meshopt views decoded (either extension), the others
+// (and a KHR view this build cannot decode, when the file has its uncompressed
+// fallback) pointing into their loaded buffer.
+void resolve_views(gltf_doc *doc, const gltf_load_options &opt)
 {
     ojson &views = doc->json["bufferViews"];
     if (views.is_null()) {
         doc->json.erase("bufferViews");
         return;
     }
+    const ojson &buffers = array_of(doc->json, "buffers");
     doc->views.resize(views.size());
+    std::vector<uint8_t> use_fallback(views.size(), 0);
+    std::vector<size_t> wanted;
     for (size_t v = 0; v < views.size(); ++v) {
-        if (has_ext(views[v], kMeshopt)) {
-            decode_meshopt_view(doc, v, views[v]);
-            continue;
+        const char *name = meshopt_name(views[v]);
+        if (!name) continue;
+        const std::string why = decode_meshopt_view(doc, v, views[v], name);
+        if (why.empty()) continue;
+        const std::string head = at("bufferViews", v) + ": cannot decode its " + name + " data: " + why;
+        if (extension_required(doc->json, name))
+            fail(GLTF_INVALID, head + "; the extension is required, so the file has no uncompressed copy");
+        const size_t b = size_t(u64(views[v], "buffer", 0));
+        if (is_meshopt_fallback(buffers[b])) {
+            if (!buffers[b].contains("uri"))
+                fail(GLTF_INVALID, head + "; its fallback " + at("buffers", b) + " has no uri (no uncompressed copy)");
+            if (std::find(wanted.begin(), wanted.end(), b) == wanted.end()) wanted.push_back(b);
         }
+        // the fallback holds the data now: the extension would describe bytes the output no longer has
+        erase_ext(views[v], name);
+        use_fallback[v] = 1;
+    }
+    if (!wanted.empty()) load_fallback_buffers(doc, wanted, opt);
+    for (size_t v = 0; v < views.size(); ++v) {
+        if (doc->views[v].ptr && !use_fallback[v]) continue; // decoded
         const std::vector<uint8_t> &data = doc->model.buffers[u64(views[v], "buffer", 0)].data;
         doc->views[v].ptr = data.data() + u64(views[v], "byteOffset", 0);
         doc->views[v].size = size_t(u64(views[v], "byteLength", 0));
@@ -1221,7 +1348,8 @@ void decode_compression(gltf_doc *doc)
                 }
         }
     if (had_draco) remove_extension_name(doc->json, kDraco);
-    remove_extension_name(doc->json, kMeshopt); // every meshopt view was decoded in resolve_views
+    // every meshopt view was decoded in resolve_views, or now holds its fallback's data
+    for (const char *name : kMeshoptNames) remove_extension_name(doc->json, name);
 }
 
 // ---- C records -------------------------------------------------------------------
@@ -1319,8 +1447,11 @@ void list_external_files(gltf_doc *doc)
             if (f == full) return;
         doc->external_files.push_back(full);
     };
-    for (const ojson &b : array_of(doc->json, "buffers"))
-        if (b.contains("uri") && !is_meshopt_fallback(b)) add(b["uri"].get<std::string>());
+    const ojson &buffers = array_of(doc->json, "buffers");
+    for (size_t b = 0; b < buffers.size(); ++b) {
+        const bool read = !is_meshopt_fallback(buffers[b]) || (b < doc->fallback_read.size() && doc->fallback_read[b]);
+        if (buffers[b].contains("uri") && read) add(buffers[b]["uri"].get<std::string>());
+    }
     for (const ojson &i : array_of(doc->json, "images"))
         if (i.contains("uri") && !i.contains("bufferView")) add(i["uri"].get<std::string>());
 }
@@ -1423,7 +1554,7 @@ void load_bytes(gltf_doc *doc, const std::string &path, const std::vector<uint8_
     // refuse buffers[0] reading it); tinygltf refuses one, so it is left out.
     if (bin_size == 0) bin = nullptr;
     load_with_tinygltf(doc, doc->json, glb, bin, bin_size);
-    resolve_views(doc);
+    resolve_views(doc, opt);
     mark_referenced_views(doc);
     decode_compression(doc);
     mark_referenced_views(doc);
@@ -2144,7 +2275,7 @@ void serialize(const gltf_doc *doc, const std::string &out_path, std::vector<glt
         const ojson &old = array_of(doc->json, "buffers");
         if (!old.empty() && !is_meshopt_fallback(old[0])) buffer = old[0];
         buffer.erase("uri");
-        erase_ext(buffer, kMeshopt);
+        for (const char *name : kMeshoptNames) erase_ext(buffer, name);
         if (!glb) buffer["uri"] = uri_of_name(stem + ".bin");
         buffer["byteLength"] = bin.size();
         root["buffers"] = ojson::array({buffer});

@@ -5,7 +5,9 @@
  *   against the glTF 2.0 schema's types (every index a non-negative integer, every
  *   object an object, ...), checks every bufferView against its buffer, and decodes
  *   compressed geometry (KHR_draco_mesh_compression through third_party/draco_codec,
- *   EXT_meshopt_compression through libmeshoptimizer's decoders). After a successful
+ *   EXT_meshopt_compression and KHR_meshopt_compression through libmeshoptimizer's
+ *   decoders; a KHR stream it has no codec for takes the file's uncompressed fallback,
+ *   or is refused when there is none). After a successful
  *   load the document looks as if it had been written uncompressed: decoded data sits
  *   in bufferViews of its own, the accessors point at them, and the decoded
  *   extensions are gone from the primitives, bufferViews and extensionsUsed/Required.
