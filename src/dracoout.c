@@ -468,7 +468,8 @@ static int pack_primitive(const gltf_doc *doc, const gltf_primitive *g, const ui
 /* Encodes pp and decodes the stream again: the face count must survive and,
  * with sequential connectivity (point order kept), every decoded position must
  * lie within the grid's bound of its exact value. Edgebreaker may drop a
- * face it cannot represent; then sequential is used. */
+ * face it cannot represent, or refuse a primitive whose every face is
+ * degenerate; then sequential is used. */
 static int encode_checked(const packed_primitive *pp, const dracoout_options *o, int sequential, uint8_t **stream,
                           size_t *size, uint32_t *ids, draco_mesh **decoded, int *used_sequential, lp_error *err)
 {
@@ -476,8 +477,14 @@ static int encode_checked(const packed_primitive *pp, const dracoout_options *o,
     for (int attempt = 0; attempt < 2; ++attempt) {
         draco_encode_options eo = {o->speed, sequential, 1};
         if (draco_encode_mesh(pp->point_count, pp->faces, pp->face_count, pp->attributes, pp->attribute_count, &eo,
-                              stream, size, ids, why, sizeof why) != 0)
-            return lp_fail(err, LP_INVALID, "Draco: %s", why);
+                              stream, size, ids, why, sizeof why) != 0) {
+            /* edgebreaker refuses a primitive whose every face has a repeated
+             * point ("All triangles are degenerate."), e.g. one made only of
+             * zero-area triangles off the surface; sequential keeps them */
+            if (sequential) return lp_fail(err, LP_INVALID, "Draco: %s", why);
+            sequential = 1;
+            continue;
+        }
         if (draco_decode_mesh(*stream, *size, decoded, why, sizeof why) != 0) {
             free(*stream);
             return lp_fail(err, LP_PROMISE, "Draco: our own stream does not decode: %s", why);

@@ -41,6 +41,7 @@ import {
 import {
   CHAIN_ASPECTS, CHAIN_EXPECTED_MIN_TRIANGLES, HAUSDORFF, SLACK_REL, analyzeChain, dequant, formatProblems, hausdorffAvailable, hausdorffWithin, newValidatorErrorMessages, primTriangles, rawPrimGeometry,
 } from './lib/lodcheck.mjs';
+import { pack, writeGlb } from './lib/lodfixture.mjs';
 
 const FAST_BIN = process.env.LODPIPE_BIN_FAST || '';
 const FAST_MIN_TRIANGLES = Number(process.env.LODPIPE_FAST_MIN_TRIANGLES || 100000);
@@ -576,4 +577,58 @@ test('convert --draco leaves chained meshes uncompressed (their recorded errors 
   for (const m of chained) assert.ok(j.meshes[m].primitives.every((p) => !p.extensions?.[DRACO]), `mesh ${m} compressed`);
   const ck = runLodpipe(['check', out, '--quiet'], { timeout: TIMEOUT_MS });
   assert.equal(ck.status, 0, describeRun(ck));
+});
+
+// A primitive made only of zero-area triangles (QA of 0ebd71e): three "dangling" ones (two segments and a
+// point 10 % of the diagonal above a wavy 40 x 40 grid) with their own material. Every level keeps them
+// (weld.h), but Draco's edgebreaker refuses a primitive whose every face has a repeated point ("All
+// triangles are degenerate."): until the fix the run failed with exit 2, also without levels (LOD0 alone).
+// Now that primitive falls back to sequential connectivity: each of its streams decodes (draco3d) to its
+// 3 triangles, in LOD0 and in every level, and `lodpipe check` passes.
+test('--draco: a primitive of zero-area triangles only is encoded (sequential), kept in LOD0 and every level', { skip }, async () => {
+  const wd = fs.mkdtempSync(path.join(workDir(), 'z-'));
+  const n = 40;
+  const pos = [];
+  const idx = [];
+  for (let r = 0; r < n; r++) for (let c = 0; c < n; c++) pos.push(c / (n - 1), r / (n - 1), 0.1 * Math.sin(3 * c / (n - 1)) * Math.cos(2 * r / (n - 1)));
+  for (let r = 0; r + 1 < n; r++) for (let c = 0; c + 1 < n; c++) {
+    const a = r * n + c;
+    idx.push(a, a + 1, a + n, a + 1, a + n + 1, a + n);
+  }
+  const stray = [0.5, 0.5, 0.3, 0.55, 0.5, 0.3, 0.5, 0.6, 0.35];
+  const { json, bin } = pack({
+    json: {
+      asset: { version: '2.0' }, scene: 0, scenes: [{ nodes: [0] }], nodes: [{ mesh: 0 }],
+      materials: [{ name: 'surface' }, { name: 'stray' }],
+      meshes: [{ name: 'grid_and_stray', primitives: [
+        { attributes: { POSITION: 0 }, indices: 1, material: 0 },
+        { attributes: { POSITION: 2 }, indices: 3, material: 1 },
+      ] }],
+      accessors: [
+        { componentType: 5126, type: 'VEC3', min: [0, 0, -0.1], max: [1, 1, 0.1] },
+        { componentType: 5125, type: 'SCALAR' },
+        { componentType: 5126, type: 'VEC3', min: [0.5, 0.5, 0.3], max: [0.55, 0.6, 0.35] },
+        { componentType: 5125, type: 'SCALAR' },
+      ],
+    },
+    datas: [Float32Array.from(pos), Uint32Array.from(idx), Float32Array.from(stray), Uint32Array.from([0, 1, 1, 0, 2, 2, 1, 1, 1])],
+  });
+  const file = path.join(wd, 'stray.glb');
+  writeGlb(file, json, bin);
+  const out = path.join(wd, 'stray_draco.glb');
+  const r = runLodpipe([file, '-o', out, '--draco', '--json'], { timeout: TIMEOUT_MS });
+  assert.equal(r.status, 0, describeRun(r));
+  const summary = JSON.parse(r.stdout);
+  assert.ok(summary.meshes[0].levels.length >= 2, `levels: ${JSON.stringify(summary.meshes[0].levels)}`);
+  const raw = readRaw(out);
+  const chain = [raw.json.nodes[0].mesh, ...raw.json.nodes[0].extensions.MSFT_lod.ids.map((id) => raw.json.nodes[id].mesh)];
+  for (const m of chain) {
+    const prims = raw.json.meshes[m].primitives;
+    assert.equal(prims.length, 2, `mesh ${m}`);
+    const ext = prims[1].extensions?.[DRACO];
+    assert.ok(ext, `mesh ${m}: the stray primitive is not Draco-compressed`);
+    assert.equal(decodeStream(viewBytes(raw, ext.bufferView)).faces.length / 3, 3, `mesh ${m}: the stray primitive's decoded triangles`);
+  }
+  const c = runLodpipe(['check', out, '--quiet'], { timeout: TIMEOUT_MS });
+  assert.equal(c.status, 0, describeRun(c));
 });
