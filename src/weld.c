@@ -639,6 +639,13 @@ static uint64_t segment_key(uint32_t a, uint32_t b)
     return a < b ? (uint64_t)a << 32 | b : (uint64_t)b << 32 | a;
 }
 
+/* What a dropped triangle's point set is, besides a segment's segment_key
+ * (whose high half is a position vertex, never NONE, so neither value can be
+ * one): a point on a kept position, or something on a position no kept
+ * triangle uses. */
+#define DROPPED_POINT (UINT64_MAX - 1)
+#define DROPPED_OFF UINT64_MAX
+
 /* Finds the dropped triangles that dangle, in input order, into
  * dangling_primitive and k->dangling_triangle (their number in the
  * primitive). A dropped triangle whose two positions are kept is a segment:
@@ -649,25 +656,32 @@ static int find_dangling(weld_work *k, weld_result *out, lp_error *err)
 {
     const scene_mesh *m = k->mesh;
     const uint32_t dropped = out->stats.degenerate_triangles;
-    size_t count = 0;
-    /* segment_key of each segment to look up: at most one per dropped triangle */
+    /* per dropped triangle, in input order: its point set (segment_key or a
+     * DROPPED_ value); and the distinct segments, to look up */
+    uint64_t *point_set = alloc_array(dropped, sizeof *point_set);
     uint64_t *segments = alloc_array(dropped, sizeof *segments);
     uint8_t *is_edge = alloc_array(dropped, sizeof *is_edge);
     out->dangling_primitive = alloc_array(dropped, sizeof *out->dangling_primitive);
     k->dangling_triangle = alloc_array(dropped, sizeof *k->dangling_triangle);
-    if (!segments || !is_edge || !out->dangling_primitive || !k->dangling_triangle) {
+    if (!point_set || !segments || !is_edge || !out->dangling_primitive || !k->dangling_triangle) {
+        free(point_set);
         free(segments);
         free(is_edge);
         return out_of_memory(k, err);
     }
+    uint32_t n = 0;
+    size_t count = 0;
     for (uint32_t p = 0; p < m->primitive_count; ++p) {
         const scene_primitive *pr = &m->primitives[p];
         if (!is_welded(pr)) continue;
         for (size_t t = 0; t < pr->triangle_count; ++t) {
-            uint32_t a, b;
             if (!triangle_is_degenerate(k, p, t)) continue;
+            uint32_t a, b;
             dropped_segment(k, p, t, &a, &b);
-            if (a != NONE && b != NONE && a != b) segments[count++] = segment_key(a, b);
+            point_set[n] = a == NONE || b == NONE ? DROPPED_OFF : a == b ? DROPPED_POINT : segment_key(a, b);
+            if (point_set[n] < DROPPED_POINT) segments[count++] = point_set[n];
+            out->dangling_primitive[n] = p;
+            k->dangling_triangle[n++] = (uint32_t)t;
         }
     }
     if (count) qsort(segments, count, sizeof *segments, compare_u64);
@@ -676,30 +690,24 @@ static int find_dangling(weld_work *k, weld_result *out, lp_error *err)
         if (!unique || segments[i] != segments[unique - 1]) segments[unique++] = segments[i];
     for (size_t i = 0; i < unique; ++i)
         is_edge[i] = (uint8_t)is_kept_edge(out, (uint32_t)(segments[i] >> 32), (uint32_t)segments[i]);
-    uint32_t n = 0;
-    for (uint32_t p = 0; p < m->primitive_count; ++p) {
-        const scene_primitive *pr = &m->primitives[p];
-        if (!is_welded(pr)) continue;
-        for (size_t t = 0; t < pr->triangle_count; ++t) {
-            uint32_t a, b;
-            if (!triangle_is_degenerate(k, p, t)) continue;
-            dropped_segment(k, p, t, &a, &b);
-            int dangles = a == NONE || b == NONE;
-            if (!dangles && a != b) {
-                const uint64_t key = segment_key(a, b);
-                const uint64_t *at = bsearch(&key, segments, unique, sizeof *segments, compare_u64);
-                assert(at); /* the first walk listed every such segment */
-                dangles = !is_edge[at - segments];
-            }
-            if (!dangles) continue;
-            out->dangling_primitive[n] = p;
-            k->dangling_triangle[n++] = (uint32_t)t;
+    /* keep the ones that dangle, in order */
+    uint32_t kept = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+        int dangles = point_set[i] == DROPPED_OFF;
+        if (point_set[i] < DROPPED_POINT) {
+            const uint64_t *at = bsearch(&point_set[i], segments, unique, sizeof *segments, compare_u64);
+            assert(at); /* every segment was listed */
+            dangles = !is_edge[at - segments];
         }
+        if (!dangles) continue;
+        out->dangling_primitive[kept] = out->dangling_primitive[i];
+        k->dangling_triangle[kept++] = k->dangling_triangle[i];
     }
+    free(point_set);
     free(segments);
     free(is_edge);
-    out->dangling_count = n;
-    out->stats.degenerate_dangling = n;
+    out->dangling_count = kept;
+    out->stats.degenerate_dangling = kept;
     return LP_OK;
 }
 
