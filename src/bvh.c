@@ -580,6 +580,13 @@ static double radius_squared(double r)
     return r >= 0.0 ? r * r : NAN;
 }
 
+double bvh_triangle_distance2(const bvh *tree, uint32_t triangle, const double p[3])
+{
+    assert(triangle < tree->triangle_count);
+    vec3d point = geom_vec3d_from_doubles(p), closest;
+    return triangle_distance2(tree, triangle, &point, &closest);
+}
+
 int bvh_closest(const bvh *tree, const double p[3], double max_dist, bvh_hit *hit)
 {
     return bvh_closest_filtered(tree, p, max_dist, NULL, NULL, hit);

@@ -112,6 +112,11 @@ const char *bvh_result_string(bvh_result result);
 /* Bytes the tree owns (nodes and triangle map), excluding the borrowed arrays. */
 size_t bvh_memory_bytes(const bvh *tree);
 
+/* d2(p, triangle) exactly as the queries below compute it, for one triangle
+ * (triangle < triangle_count): a caller that already knows a likely answer
+ * can test it without a traversal and rely on the same value. */
+double bvh_triangle_distance2(const bvh *tree, uint32_t triangle, const double p[3]);
+
 /* Decides whether triangle `triangle` takes part in a query; non-zero = yes.
  * Called with the caller's context, possibly several times per triangle,
  * never for triangles a query can rule out by their boxes. */

@@ -3,12 +3,16 @@
 
 #include <float.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdarg.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "accessor.h"
+#include "bvh.h"
 #include "jsonw.h"
 #include "measure.h"
 #include "sha256.h"
@@ -945,9 +949,146 @@ static uint32_t same_morph(const scene *s, uint32_t m, const weld_result *w, uin
     return t;
 }
 
-/* Measures every kept level against LOD0 under every morph target. */
+/* Which earlier target each target repeats: same[t] is the first target
+ * that moves LOD0 exactly as t does, t itself when none does. */
+static int repeated_targets(const scene *s, uint32_t m, const weld_result *w, uint32_t targets, uint32_t *same,
+                            lp_error *err)
+{
+    uint8_t (*digests)[SHA256_BYTES] = calloc(targets, sizeof *digests);
+    if (!digests) return lp_fail(err, LP_INVALID, "out of memory");
+    int rc = LP_OK;
+    for (uint32_t t = 0; t < targets && !rc; ++t) {
+        float *positions = NULL;
+        uint32_t *triangles = NULL;
+        measure_mesh a;
+        rc = lodchain_mesh_triangles(s, m, w, NULL, (int)t, &positions, &triangles, &a, err);
+        if (!rc) same[t] = same_morph(s, m, w, digests, t, &a, err);
+        free(positions);
+        free(triangles);
+    }
+    free(digests);
+    return rc;
+}
+
+/* Targets measured at once: at most this many, and at most MORPH_BATCH_BYTES
+ * of them (each holds LOD0 moved by it, its BVH and the levels that place
+ * their own vertices moved by it), so that a large mesh with many targets
+ * does not hold them all; at least one. */
+#define MORPH_BATCH_TARGETS 64
+#define MORPH_BATCH_BYTES ((size_t)512 << 20)
+#define MORPH_MAX_THREADS 64
+
+/* One distinct target of a batch: LOD0 and every kept level moved by it. A
+ * level that shares LOD0's vertices shares its moved positions and the
+ * level's triangle list (the same for every target); only a level that
+ * places its own vertices has its own copy. */
+typedef struct morph_slot {
+    uint32_t target;
+    float *positions;
+    uint32_t *triangles;
+    measure_mesh lod0;
+    bvh tree; /* over lod0, built once for all its levels */
+    int built;
+    float *level_positions[SIMPLIFY_MAX_LEVELS];
+    uint32_t *level_triangles[SIMPLIFY_MAX_LEVELS];
+    measure_mesh level[SIMPLIFY_MAX_LEVELS];
+} morph_slot;
+
+/* A batch's measurements on the job's threads: job j measures slot j / levels
+ * against level j % levels and writes its own entry of errors, so the bytes
+ * written do not depend on the thread count or on which thread ran what. */
+typedef struct morph_work {
+    const morph_slot *slots;
+    uint32_t slot_count, level_count, target_count;
+    double spacing;
+    double *errors; /* lodchain_summary.morph_errors */
+    atomic_uint next;
+} morph_work;
+
+static void *morph_worker(void *arg)
+{
+    morph_work *work = arg;
+    const uint32_t jobs = work->slot_count * work->level_count;
+    for (;;) {
+        const uint32_t j = atomic_fetch_add_explicit(&work->next, 1, memory_order_relaxed);
+        if (j >= jobs) return NULL;
+        const morph_slot *slot = &work->slots[j / work->level_count];
+        const uint32_t k = j % work->level_count;
+        /* what measure_two_sided gives, LOD0's tree built once: -1 when it cannot be built */
+        work->errors[(size_t)k * work->target_count + slot->target] =
+            slot->built ? measure_two_sided_with(&slot->lod0, &slot->tree, &slot->level[k], work->spacing) : -1.0;
+    }
+}
+
+static void run_morph_work(morph_work *work, uint32_t threads)
+{
+    pthread_t helpers[MORPH_MAX_THREADS];
+    const uint32_t jobs = work->slot_count * work->level_count;
+    uint32_t started = 0;
+    while (started + 1 < threads && started + 1 < jobs)
+        if (pthread_create(&helpers[started], NULL, morph_worker, work) == 0) started++;
+        else break; /* the calling thread does what is left */
+    morph_worker(work);
+    for (uint32_t i = 0; i < started; ++i) pthread_join(helpers[i], NULL);
+}
+
+static void free_slot(morph_slot *slot, uint32_t level_count)
+{
+    bvh_free(&slot->tree);
+    free(slot->positions);
+    free(slot->triangles);
+    for (uint32_t k = 0; k < level_count; ++k) {
+        free(slot->level_positions[k]);
+        free(slot->level_triangles[k]);
+    }
+    memset(slot, 0, sizeof *slot);
+}
+
+/* Fills slot with target t's meshes; levels[k] are the kept levels' triangle
+ * lists (unmoved; triangles index the same vertices whatever the target). */
+static int fill_slot(const scene *s, uint32_t m, const weld_result *w, const simplify_result *r, const uint32_t *kept,
+                     const measure_mesh *levels, uint32_t level_count, uint32_t t, morph_slot *slot, lp_error *err)
+{
+    slot->target = t;
+    int rc = lodchain_mesh_triangles(s, m, w, NULL, (int)t, &slot->positions, &slot->triangles, &slot->lod0, err);
+    if (rc) return rc;
+    slot->built = bvh_build(&slot->tree, slot->lod0.positions, slot->lod0.vertex_count, slot->lod0.triangles,
+                            slot->lod0.triangle_count) == BVH_OK;
+    for (uint32_t k = 0; k < level_count && !rc; ++k) {
+        const simplify_level *level = &r->levels[kept[k]];
+        if (level->positions)
+            rc = lodchain_mesh_triangles(s, m, w, level, (int)t, &slot->level_positions[k], &slot->level_triangles[k],
+                                         &slot->level[k], err);
+        else
+            slot->level[k] = (measure_mesh){slot->lod0.positions, slot->lod0.vertex_count, levels[k].triangles,
+                                            levels[k].triangle_count};
+    }
+    return rc;
+}
+
+/* Bytes a slot holds, roughly: positions and triangles of LOD0 (and of each
+ * level with its own vertices) and ~32 bytes a triangle of BVH. */
+static size_t slot_bytes(const scene_mesh *mesh, const simplify_result *r, const uint32_t *kept,
+                         const measure_mesh *levels, uint32_t level_count)
+{
+    const size_t vertices = levels[0].vertex_count; /* LOD0's, shared by every level */
+    size_t bytes = 12 * vertices + 44 * (size_t)mesh->triangle_count;
+    for (uint32_t k = 0; k < level_count; ++k)
+        if (r->levels[kept[k]].positions) bytes += 12 * vertices + 12 * (size_t)levels[k].triangle_count;
+    return bytes;
+}
+
+static uint32_t thread_count(uint32_t threads)
+{
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    uint32_t n = threads ? threads : cores > 0 ? (uint32_t)cores : 1;
+    return n > MORPH_MAX_THREADS ? MORPH_MAX_THREADS : n;
+}
+
+/* Measures every kept level against LOD0 under every morph target: each
+ * distinct target once, in batches measured on the job's threads. */
 static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, const simplify_result *r,
-                          const uint32_t *kept, lodchain_summary *out, lp_error *err)
+                          const uint32_t *kept, uint32_t threads, lodchain_summary *out, lp_error *err)
 {
     const scene_mesh *mesh = &s->meshes[m];
     uint32_t targets = 0;
@@ -955,39 +1096,46 @@ static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, cons
         if (!mesh->primitives[p].skipped && mesh->primitives[p].target_count > targets)
             targets = mesh->primitives[p].target_count;
     if (!targets) return LP_OK;
+    const uint32_t level_count = out->level_count;
     out->target_count = targets;
-    out->morph_errors = calloc((size_t)out->level_count * targets + 1, sizeof *out->morph_errors);
-    if (!out->morph_errors) return lp_fail(err, LP_INVALID, "out of memory");
-    const double spacing = r->diagonal / 400.0;
+    out->morph_errors = calloc((size_t)level_count * targets + 1, sizeof *out->morph_errors);
     /* targets that move LOD0 the same way (one accessor shared by thousands
      * of targets, say) have the same errors: each is measured once, found by
      * a digest of its moved positions and confirmed byte for byte */
-    uint8_t (*digests)[SHA256_BYTES] = calloc(targets, sizeof *digests);
-    if (!digests) return lp_fail(err, LP_INVALID, "out of memory");
-    int rc = LP_OK;
-    for (uint32_t t = 0; t < targets && !rc; ++t) {
-        float *bp = NULL, *lp = NULL;
-        uint32_t *bt = NULL, *lt = NULL;
-        measure_mesh a, b;
-        rc = lodchain_mesh_triangles(s, m, w, NULL, (int)t, &bp, &bt, &a, err);
-        const uint32_t same = rc ? t : same_morph(s, m, w, digests, t, &a, err);
-        if (same < t)
-            for (uint32_t k = 0; k < out->level_count; ++k)
-                out->morph_errors[(size_t)k * targets + t] = out->morph_errors[(size_t)k * targets + same];
-        for (uint32_t k = 0; k < out->level_count && !rc && same == t; ++k) {
-            free(lp);
-            free(lt);
-            lp = NULL;
-            lt = NULL;
-            rc = lodchain_mesh_triangles(s, m, w, &r->levels[kept[k]], (int)t, &lp, &lt, &b, err);
-            if (!rc) out->morph_errors[(size_t)k * targets + t] = measure_two_sided(&a, &b, spacing);
-        }
-        free(bp);
-        free(bt);
-        free(lp);
-        free(lt);
+    uint32_t *same = calloc(targets, sizeof *same);
+    morph_slot *slots = calloc(MORPH_BATCH_TARGETS, sizeof *slots);
+    float *unmoved[SIMPLIFY_MAX_LEVELS] = {0}; /* a level's positions without a target: not used */
+    uint32_t *level_triangles[SIMPLIFY_MAX_LEVELS] = {0};
+    measure_mesh levels[SIMPLIFY_MAX_LEVELS];
+    int rc = out->morph_errors && same && slots ? LP_OK : lp_fail(err, LP_INVALID, "out of memory");
+    if (!rc) rc = repeated_targets(s, m, w, targets, same, err);
+    for (uint32_t k = 0; k < level_count && !rc; ++k)
+        rc = lodchain_mesh_triangles(s, m, w, &r->levels[kept[k]], -1, &unmoved[k], &level_triangles[k], &levels[k], err);
+    uint32_t batch = 1;
+    if (!rc) {
+        const size_t bytes = slot_bytes(mesh, r, kept, levels, level_count);
+        batch = bytes && MORPH_BATCH_BYTES / bytes < MORPH_BATCH_TARGETS ? (uint32_t)(MORPH_BATCH_BYTES / bytes)
+                                                                          : MORPH_BATCH_TARGETS;
+        if (batch < 1) batch = 1;
     }
-    free(digests);
+    morph_work work = {slots, 0, level_count, targets, r->diagonal / 400.0, out->morph_errors, 0};
+    for (uint32_t t = 0; t < targets && !rc;) {
+        work.slot_count = 0;
+        for (; t < targets && work.slot_count < batch && !rc; ++t)
+            if (same[t] == t) rc = fill_slot(s, m, w, r, kept, levels, level_count, t, &slots[work.slot_count++], err);
+        atomic_store(&work.next, 0);
+        if (!rc) run_morph_work(&work, thread_count(threads));
+        for (uint32_t i = 0; i < work.slot_count; ++i) free_slot(&slots[i], level_count);
+    }
+    for (uint32_t t = 0; t < targets && !rc; ++t)
+        for (uint32_t k = 0; k < level_count && same[t] < t; ++k)
+            out->morph_errors[(size_t)k * targets + t] = out->morph_errors[(size_t)k * targets + same[t]];
+    for (uint32_t k = 0; k < level_count; ++k) {
+        free(unmoved[k]);
+        free(level_triangles[k]);
+    }
+    free(slots);
+    free(same);
     return rc;
 }
 
@@ -1010,7 +1158,7 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
     int rc = index_channels(s, err); /* before any channel is added or retargeted */
     if (rc) return rc;
     out->level_count = level_count; /* before the reorder: morphs are measured in the original order */
-    rc = measure_morphs(s, m, w, r, kept, out, err);
+    rc = measure_morphs(s, m, w, r, kept, o->threads, out, err);
     out->level_count = 0;
     if (rc) return rc;
     uint32_t **new_of_old = calloc(mesh->primitive_count + 1, sizeof *new_of_old);

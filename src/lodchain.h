@@ -22,7 +22,9 @@
  *   child, the carrier, that gets them instead;
  * - morph targets: the bound holds for the base shape; for each target the
  *   level's distance to LOD0 with that target applied at weight 1 is MEASURED
- *   (dense sampling, measure.h) and written beside the bound.
+ *   (dense sampling, measure.h) and written beside the bound; the distinct
+ *   targets are measured on options->threads threads, each result into its
+ *   own slot, so the bytes written do not depend on the thread count.
  * Nothing else in the document changes. A node that already carries MSFT_lod
  * is left alone (with a warning). */
 #ifndef LODPIPE_LODCHAIN_H
@@ -50,6 +52,9 @@ typedef struct lodchain_options {
      * use the sum), LOD0's recorded error becomes added_error[0], and each
      * level's extras.lodpipe entry gets "quantization_error". */
     const double *added_error;
+    /* threads measuring the morph targets, 0: one per online core; the
+     * numbers written do not depend on it */
+    uint32_t threads;
 } lodchain_options;
 
 typedef struct lodchain_level {

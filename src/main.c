@@ -771,7 +771,7 @@ static int cmd_lod(const cli *c)
     simplify_options opt = simplify_options_of(c);
     lodchain_options chain = {{c->config.switching.pixel_error, c->config.switching.viewport_height,
                                c->config.switching.fov_y},
-                              c->config.lod.min_reduction, 0, NULL};
+                              c->config.lod.min_reduction, 0, NULL, (uint32_t)c->config.run.threads};
     const int draco = c->config.draco.enabled;
     const dracoout_options draco_opt = draco_options_of(c);
     draco_job *draco_jobs = calloc((size_t)s.mesh_count + 1, sizeof *draco_jobs);

@@ -42,8 +42,28 @@ static double overestimate(const extent *a, const extent *b, double d)
            16.0 * DBL_EPSILON * fmax(a->magnitude, b->magnitude);
 }
 
+/* Whether the sample q certainly cannot raise `worst`: some triangle of the
+ * tree lies within a radius r a little under worst. Then the exact closest
+ * distance d has fl(sqrt(d^2)) <= worst (the 8 ulps of margin absorb the
+ * rounding of r * r and of the square root), and the value kept, d less a
+ * non-negative overestimate, is no larger, so skipping q changes no maximum
+ * by a single bit. Most samples lie nearer than the largest distance found
+ * so far: for them the exact closest-point query is replaced by a decision
+ * that stops at the first triangle within r, tried first on the triangle
+ * that answered the previous sample (*witness; neighbouring samples share
+ * it), then by a traversal, nearest box first. Not tried below 1e-150, where
+ * r * r would underflow and round upwards. */
+static int within_worst(const bvh *tree, const double q[3], double worst, uint32_t *witness)
+{
+    if (!(worst > 1e-150)) return 0;
+    const double r = worst * (1.0 - 8.0 * DBL_EPSILON);
+    if (*witness < tree->triangle_count && bvh_triangle_distance2(tree, *witness, q) <= r * r) return 1;
+    return bvh_any_within_filtered(tree, q, r, NULL, NULL, witness);
+}
+
+/* worst raised by the samples of a's triangle t farther from b (tree) */
 static double sample_triangle(const measure_mesh *a, uint32_t t, const bvh *tree, const extent *a_extent,
-                              const extent *b_extent, double spacing, double worst)
+                              const extent *b_extent, double spacing, double worst, uint32_t *witness)
 {
     vec3d p[3];
     for (int k = 0; k < 3; ++k) p[k] = geom_vec3d_from_floats(a->positions + 3 * (size_t)a->triangles[3 * (size_t)t + k]);
@@ -57,10 +77,12 @@ static double sample_triangle(const measure_mesh *a, uint32_t t, const bvh *tree
             double q[3] = {u * p[0].x + v * p[1].x + w * p[2].x, u * p[0].y + v * p[1].y + w * p[2].y,
                            u * p[0].z + v * p[1].z + w * p[2].z};
             bvh_hit hit;
+            if (within_worst(tree, q, worst, witness)) continue;
             if (bvh_closest(tree, q, INFINITY, &hit)) {
                 double d = sqrt(hit.distance2);
                 d -= overestimate(a_extent, b_extent, d);
                 if (d > worst) worst = d;
+                *witness = hit.triangle;
             }
         }
     return worst;
@@ -71,8 +93,9 @@ static double sample_all(const measure_mesh *a, const extent *a_extent, const bv
                          double spacing)
 {
     double worst = 0.0;
+    uint32_t witness = UINT32_MAX; /* none yet */
     for (uint32_t t = 0; t < a->triangle_count; ++t)
-        worst = sample_triangle(a, t, b_tree, a_extent, b_extent, spacing, worst);
+        worst = sample_triangle(a, t, b_tree, a_extent, b_extent, spacing, worst, &witness);
     return worst;
 }
 

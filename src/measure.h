@@ -6,6 +6,9 @@
  * It stays one despite rounding: each computed distance is reduced by what
  * geom.h allows it to overestimate (thin triangles, the sample point's own
  * rounding), about 1e-7 of the longest edge for ordinary meshes.
+ * Cost: a sample that lies within the largest distance found so far cannot
+ * raise the maximum and is settled by a decision query (bvh_any_within)
+ * instead of an exact closest point: the same maximum, to the bit.
  * Used by `lodpipe check`, independently of the certificate's code paths. */
 #ifndef LODPIPE_MEASURE_H
 #define LODPIPE_MEASURE_H

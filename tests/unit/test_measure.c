@@ -8,11 +8,18 @@
  *   1e-7 (2 + h) (what rounding could add), in both
  *   directions and through measure_two_sided_with;
  * - a tent (one vertex of a grid raised) reads the raise exactly where the
- *   samples reach the apex. */
+ *   samples reach the apex;
+ * - skipping the samples that lie within the largest distance found so far
+ *   changes nothing: on random bumpy grids both directions equal, to the bit,
+ *   a reference that queries the exact closest point for every sample. */
 #include "bvh.h"
 #include "check.h"
+#include "geom.h"
 #include "measure.h"
+#define RNG_SEED 0x6d656173ULL
+#include "rng.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdint.h>
 
@@ -89,10 +96,103 @@ static void test_tent(void)
     CHECK(back > 0.3 && back <= 0.5, "flat to tent %.17g", back);
 }
 
+/* measure_one_sided as it was before samples were skipped: the same grid of
+ * samples, the exact closest point for each, less the same overestimate
+ * (measure.c's extent_of and overestimate, restated) */
+static void reference_extent(const measure_mesh *m, double *longest, double *largest)
+{
+    double longest2 = 0.0;
+    *largest = 0.0;
+    for (uint32_t t = 0; t < m->triangle_count; ++t) {
+        vec3d p[3];
+        for (int k = 0; k < 3; ++k) p[k] = geom_vec3d_from_floats(m->positions + 3 * (size_t)m->triangles[3 * t + k]);
+        for (int k = 0; k < 3; ++k) {
+            longest2 = fmax(longest2, geom_distance2(p[k], p[(k + 1) % 3]));
+            *largest = fmax(*largest, fmax(fabs(p[k].x), fmax(fabs(p[k].y), fabs(p[k].z))));
+        }
+    }
+    *longest = sqrt(longest2);
+}
+
+static double reference_one_sided(const measure_mesh *a, const measure_mesh *b, double spacing)
+{
+    double a_edge, a_mag, b_edge, b_mag, worst = 0.0;
+    reference_extent(a, &a_edge, &a_mag);
+    reference_extent(b, &b_edge, &b_mag);
+    bvh tree;
+    if (bvh_build(&tree, b->positions, b->vertex_count, b->triangles, b->triangle_count) != BVH_OK) return -1.0;
+    for (uint32_t t = 0; t < a->triangle_count; ++t) {
+        vec3d p[3];
+        for (int k = 0; k < 3; ++k) p[k] = geom_vec3d_from_floats(a->positions + 3 * (size_t)a->triangles[3 * t + k]);
+        double longest = fmax(geom_distance(p[0], p[1]), fmax(geom_distance(p[1], p[2]), geom_distance(p[2], p[0])));
+        int n = (int)ceil(longest / spacing);
+        n = n < 1 ? 1 : n > 64 ? 64 : n;
+        for (int i = 0; i <= n; ++i)
+            for (int j = 0; j <= n - i; ++j) {
+                double u = (double)i / n, v = (double)j / n, w = 1.0 - u - v;
+                double q[3] = {u * p[0].x + v * p[1].x + w * p[2].x, u * p[0].y + v * p[1].y + w * p[2].y,
+                               u * p[0].z + v * p[1].z + w * p[2].z};
+                bvh_hit hit;
+                if (!bvh_closest(&tree, q, INFINITY, &hit)) continue;
+                double d = sqrt(hit.distance2);
+                d -= 4.0 * sqrt(DBL_EPSILON * (d + b_edge) * b_edge) + 16.0 * DBL_EPSILON * fmax(a_mag, b_mag);
+                if (d > worst) worst = d;
+            }
+    }
+    bvh_free(&tree);
+    return worst;
+}
+
+/* an n x n grid over [0, 1]^2, heights random in [0, bump), triangulated
+ * with the diagonal flipped at random */
+static void bumpy_grid(uint32_t n, double bump, float *positions, uint32_t *triangles)
+{
+    for (uint32_t j = 0; j <= n; ++j)
+        for (uint32_t i = 0; i <= n; ++i) {
+            float *p = positions + 3 * ((n + 1) * j + i);
+            p[0] = (float)i / (float)n;
+            p[1] = (float)j / (float)n;
+            p[2] = (float)rng_uniform(0.0, bump);
+        }
+    uint32_t k = 0;
+    for (uint32_t j = 0; j < n; ++j)
+        for (uint32_t i = 0; i < n; ++i) {
+            const uint32_t v = (n + 1) * j + i, w = v + n + 1;
+            const uint32_t flip = rng_uniform(0.0, 1.0) < 0.5;
+            const uint32_t quad[2][6] = {{v, v + 1, w + 1, v, w + 1, w}, {v, v + 1, w, v + 1, w + 1, w}};
+            for (int c = 0; c < 6; ++c) triangles[k++] = quad[flip][c];
+        }
+}
+
+static void test_skipped_samples_change_nothing(void)
+{
+    enum { FINE = 24, COARSE = 6 };
+    static float fine[3 * (FINE + 1) * (FINE + 1)], coarse[3 * (COARSE + 1) * (COARSE + 1)];
+    static uint32_t fine_triangles[6 * FINE * FINE], coarse_triangles[6 * COARSE * COARSE];
+    for (int round = 0; round < 8; ++round) {
+        const double bump = round < 4 ? 0.05 : 1e-6; /* the latter: distances near rounding */
+        bumpy_grid(FINE, bump, fine, fine_triangles);
+        bumpy_grid(COARSE, bump, coarse, coarse_triangles);
+        const measure_mesh a = {fine, (FINE + 1) * (FINE + 1), fine_triangles, 2 * FINE * FINE};
+        const measure_mesh b = {coarse, (COARSE + 1) * (COARSE + 1), coarse_triangles, 2 * COARSE * COARSE};
+        for (double spacing = 0.2; spacing >= 0.005; spacing /= 4) {
+            const double ab = reference_one_sided(&a, &b, spacing), ba = reference_one_sided(&b, &a, spacing);
+            const double one = measure_one_sided(&a, &b, spacing), two = measure_two_sided(&a, &b, spacing);
+            const double self = measure_one_sided(&a, &a, spacing), self_reference = reference_one_sided(&a, &a, spacing);
+            CHECK(one == ab, "round %d spacing %g: fine to coarse %.17g, reference %.17g", round, spacing, one, ab);
+            CHECK(two == fmax(ab, ba), "round %d spacing %g: two-sided %.17g, reference %.17g", round, spacing, two,
+                  fmax(ab, ba));
+            CHECK(self == self_reference, "round %d spacing %g: against itself %.17g, reference %.17g", round, spacing,
+                  self, self_reference);
+        }
+    }
+}
+
 int main(void)
 {
     RUN(test_slivers_against_themselves);
     RUN(test_lifted_square);
     RUN(test_tent);
+    RUN(test_skipped_samples_change_nothing);
     return check_summary();
 }
