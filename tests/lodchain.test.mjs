@@ -1154,31 +1154,15 @@ test('morph_errors: targets sharing their accessors get the errors of the first 
   assert.ok(levels.some((l) => l.morph_errors[0] !== l.morph_errors[1]), 'the two distinct targets are measured apart');
 });
 
-// The cost of morph_errors (QA: a face rig has 52+ targets; each distinct target cost ~0.85 s on the
-// 5.8k-triangle cow, 2.6 times the whole run without targets, so 52 targets took 45 s). The samples that
-// lie nearer than the largest distance found so far are settled by a decision query instead of an exact
-// closest-point one, which cannot change the maximum: a distinct target now costs a fraction of the run
-// without targets, on one thread (the same numbers: tests/determinism.test.mjs). Best of two runs each,
-// against a load of other processes.
-test('morph_errors: a distinct morph target costs less than the whole run without targets', { skip: skipRuns }, (t) => {
+// The cost per target is a measurement, not a test (speed is checked by
+// benchmarks, never by timed tests): README "Output format", morph_errors.
+test('morph_errors: every kept level of a 16-target cow has one error per target', { skip: skipRuns }, (t) => {
   const dir = tempDir(t);
   const targets = 16;
   const input = writeMorphCow(dir, 'cow_16_targets.glb', { distinct: targets });
-  const seconds = (file) => {
-    let best = Infinity;
-    for (let i = 0; i < 2; i++) {
-      const t0 = process.hrtime.bigint();
-      const r = runLodpipe([file, '-o', path.join(dir, 'out.glb'), '--quiet', '--threads', '1']);
-      assert.equal(r.status, 0, describeRun(r));
-      best = Math.min(best, Number(process.hrtime.bigint() - t0) / 1e9);
-    }
-    return best;
-  };
-  const plain = seconds(corpusPath('scans/cow.glb'));
-  const morphed = seconds(input);
-  const perTarget = (morphed - plain) / targets;
-  t.diagnostic(`cow: ${plain.toFixed(2)} s without targets, ${morphed.toFixed(2)} s with ${targets}: ${(perTarget * 1000).toFixed(0)} ms a target`);
-  assert.ok(perTarget < plain, `a target costs ${perTarget.toFixed(3)} s, the run without targets ${plain.toFixed(3)} s`);
+  const r = runLodpipe([input, '-o', path.join(dir, 'out.glb'), '--quiet', '--threads', '1']);
+  assert.equal(r.status, 0, describeRun(r));
   const levels = readRaw(path.join(dir, 'out.glb')).json.nodes.flatMap((n) => n.extras?.lodpipe?.levels?.slice(1) ?? []);
   assert.ok(levels.length > 0 && levels.every((l) => l.morph_errors?.length === targets), 'every level has its morph_errors');
+  assert.ok(levels.every((l) => l.morph_errors.every((e) => Number.isFinite(e) && e >= 0)), 'finite, non-negative errors');
 });
