@@ -174,7 +174,7 @@ fuzz: fuzz-build
 
 # ---- benchmarks: quality and speed against meshoptimizer, into bench/RESULTS.md --------
 # Measurements, not tests (about 75 minutes on this 2-core machine: run.py's quality part
-# is most of it; batch.py and draco.py take a few minutes each).
+# is most of it; batch.py, draco.py and morph.py take a few minutes each).
 bench: deps
 	$(MAKE) all hausdorff
 	@command -v python3 >/dev/null && python3 -c 'import numpy' 2>/dev/null || \
@@ -182,6 +182,7 @@ bench: deps
 	python3 bench/run.py
 	python3 bench/batch.py
 	python3 bench/draco.py
+	python3 bench/morph.py
 
 # The independent topology oracle (OpenMesh), used by tests/simplify.test.mjs.
 $(BUILD)/mesh_check: tests/tools/mesh_check.cpp

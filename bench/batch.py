@@ -93,11 +93,12 @@ def git_commit():
         return "unknown"
 
 
-def write_section(path, text):
-    block = BEGIN + "\n" + text.rstrip("\n") + "\n" + END + "\n"
+def write_section(path, text, begin=BEGIN, end=END):
+    """Puts text between the markers begin/end in path (replacing that block, or appended)."""
+    block = begin + "\n" + text.rstrip("\n") + "\n" + end + "\n"
     old = open(path, encoding="utf-8").read() if os.path.exists(path) else ""
-    if BEGIN in old and END in old and old.index(BEGIN) < old.index(END):
-        new = old[:old.index(BEGIN)] + block + old[old.index(END) + len(END):].lstrip("\n")
+    if begin in old and end in old and old.index(begin) < old.index(end):
+        new = old[:old.index(begin)] + block + old[old.index(end) + len(end):].lstrip("\n")
     else:
         new = old + ("\n" if old and not old.endswith("\n\n") else "") + block
     with open(path, "w", encoding="utf-8") as f:
