@@ -453,7 +453,11 @@ test('malformed containers and buffers: one line in lodpipe\'s words, from every
     const b64 = m.bin.toString('base64');
     for (const [name, uri, needle] of [['data_longer.gltf', `data:application/octet-stream;base64,${Buffer.concat([m.bin, Buffer.alloc(3)]).toString('base64')}`, /buffers\[0\]\.uri holds 47 bytes, not the declared byteLength 44/],
       ['data_not_base64.gltf', `data:application/octet-stream;base64,${b64.slice(0, 8)}!${b64.slice(9)}`, /buffers\[0\]\.uri is not valid base64 \(at character 45\)/],
-      ['data_type.gltf', `data:application/x-foo;base64,${b64}`, /buffers\[0\]\.uri is a data: uri of type "application\/x-foo"/]]) {
+      ['data_type.gltf', `data:application/x-foo;base64,${b64}`, /buffers\[0\]\.uri is a data: uri of type "application\/x-foo"/],
+      // a media type with a parameter was quoted up to its first ';': 'of type "application/octet-stream" (a buffer's is
+      // application/octet-stream ...)', refusing the very type it named
+      ['data_type_parameter.gltf', `data:application/octet-stream;charset=x;base64,${b64}`,
+        /buffers\[0\]\.uri is a data: uri of type "application\/octet-stream;charset=x" \(a buffer's is application\/octet-stream or application\/gltf-buffer\)/]]) {
       const d = JSON.parse(JSON.stringify(m.json));
       d.buffers[0].uri = uri;
       fs.writeFileSync(path.join(dir, name), JSON.stringify(d));

@@ -862,8 +862,10 @@ void check_buffer_data_uri(const std::string &where, const std::string &uri, uin
     const uint64_t size = data_uri_bytes(where, uri);
     bool known = false;
     for (const char *p : kBufferDataUriPrefixes) known = known || uri.compare(0, strlen(p), p) == 0;
+    // the media type is quoted with its parameters, up to ";base64," (a type cut at its
+    // first ';' read as one of the accepted ones: `application/octet-stream;charset=x`)
     if (!known)
-        fail(GLTF_INVALID, where + ".uri is a data: uri of type " + quoted(uri.substr(5, uri.find(';') - 5)) +
+        fail(GLTF_INVALID, where + ".uri is a data: uri of type " + quoted(uri.substr(5, uri.find(',') - 12)) +
                                " (a buffer's is application/octet-stream or application/gltf-buffer)");
     if (size != declared) fail_byte_length(where + ".uri", size, declared);
 }
