@@ -11,10 +11,18 @@ embedded as data: uris and its external images replaced by a 4-byte stand-in
 (images are passed through, never decoded). The pipeline corpus keeps only
 files with at most PIPELINE_MAX_TRIANGLES triangles in the manifest (or no
 count: invalid and generated files), matching the harness's own cap.
-File names are the source path with '/' as '__', so reruns overwrite."""
+File names are the source path with '/' as '__', so reruns overwrite.
+
+Every seed naming EXT_meshopt_compression also gets KHR twins (the ratified
+name, which the loader decodes the same way; no corpus file uses it): '.khr'
+with the name replaced, and, for a GLB, '.khr-fallback' whose first attribute
+stream claims version 1 (header 0xa1, which libmeshoptimizer 0.18 cannot
+decode) and whose fallback buffer is a data: uri of zeros, so the loader's
+fallback path (a second tinygltf pass, load_fallback_buffers) is fuzzed too."""
 import base64
 import json
 import os
+import struct
 import sys
 
 MAX_BYTES = 65536
@@ -49,6 +57,79 @@ def embedded(path):
     return json.dumps(doc, separators=(',', ':')).encode()
 
 
+EXT_MESHOPT = b'EXT_meshopt_compression'
+KHR_MESHOPT = b'KHR_meshopt_compression'  # same length: a GLB's chunk lengths stay right
+
+
+def glb_chunks(data):
+    """A GLB's (type, bytes) chunks, or None when it is not a well-formed one."""
+    if len(data) < 12 or data[:4] != b'glTF':
+        return None
+    chunks, pos = [], 12
+    while pos + 8 <= len(data):
+        length, kind = struct.unpack_from('<II', data, pos)
+        if pos + 8 + length > len(data):
+            return None
+        chunks.append((kind, data[pos + 8:pos + 8 + length]))
+        pos += 8 + length
+    return chunks if chunks and pos == len(data) else None
+
+
+def glb_of(chunks):
+    body = b''.join(struct.pack('<II', len(c), kind) + c for kind, c in chunks)
+    return struct.pack('<III', 0x46546C67, 2, 12 + len(body)) + body
+
+
+def khr_fallback_variant(khr_glb):
+    """The KHR twin with its first ATTRIBUTES stream's header set to version 1 and
+    every fallback buffer given zeros as a data: uri (the loader reads the
+    fallback then); None when the file has no such stream or fallback."""
+    chunks = glb_chunks(khr_glb)
+    if not chunks or len(chunks) < 2:
+        return None
+    try:
+        doc = json.loads(chunks[0][1])
+    except ValueError:
+        return None
+    name = KHR_MESHOPT.decode()
+    buffers, views = doc.get('buffers'), doc.get('bufferViews')
+    if not isinstance(buffers, list) or not isinstance(views, list):
+        return None
+    fallbacks = 0
+    for buf in buffers:
+        ext = buf.get('extensions', {}).get(name, {}) if isinstance(buf, dict) else {}
+        length = buf.get('byteLength') if isinstance(buf, dict) else None
+        if isinstance(ext, dict) and ext.get('fallback') is True and isinstance(length, int) and 0 < length <= MAX_BYTES:
+            buf['uri'] = 'data:application/octet-stream;base64,' + base64.b64encode(bytes(length)).decode()
+            fallbacks += 1
+    streams = [v['extensions'][name] for v in views if isinstance(v, dict) and isinstance(v.get('extensions'), dict)
+               and isinstance(v['extensions'].get(name), dict) and v['extensions'][name].get('mode') == 'ATTRIBUTES']
+    if not fallbacks or not streams:
+        return None
+    if name in doc.get('extensionsRequired', []):
+        doc['extensionsRequired'].remove(name)  # optional: a client without the codec reads the fallback
+    bin_chunk = bytearray(chunks[1][1])
+    offset = streams[0].get('byteOffset', 0)
+    if not isinstance(offset, int) or offset >= len(bin_chunk):
+        return None
+    bin_chunk[offset] = 0xa1
+    text = json.dumps(doc, separators=(',', ':')).encode()
+    text += b' ' * (-len(text) % 4)
+    return glb_of([(chunks[0][0], text), (chunks[1][0], bytes(bin_chunk))] + chunks[2:])
+
+
+def khr_twins(data):
+    """(suffix, bytes) of the KHR_meshopt_compression seeds made from one seed."""
+    if EXT_MESHOPT not in data:
+        return []
+    khr = data.replace(EXT_MESHOPT, KHR_MESHOPT)
+    twins = [('.khr', khr)]
+    variant = khr_fallback_variant(khr)
+    if variant and len(variant) <= MAX_BYTES:
+        twins.append(('.khr-fallback', variant))
+    return twins
+
+
 def triangle_counts(assets):
     try:
         manifest = json.load(open(os.path.join(assets, 'manifest.json')))
@@ -81,9 +162,10 @@ def main():
                 if tris is None or tris <= PIPELINE_MAX_TRIANGLES:
                     targets.append('pipeline')
                 for sub in targets:
-                    with open(os.path.join(out, sub, seed), 'wb') as f:
-                        f.write(data)
-                    written[sub] += 1
+                    for suffix, seed_data in [('', data)] + khr_twins(data):
+                        with open(os.path.join(out, sub, seed + suffix), 'wb') as f:
+                            f.write(seed_data)
+                        written[sub] += 1
     print('seeds: %d for load, %d for pipeline' % (written['load'], written['pipeline']))
 
 
