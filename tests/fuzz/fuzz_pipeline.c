@@ -158,7 +158,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                                   full_edge, regions};
     const lodchain_options chain = {{config.switching.pixel_error, config.switching.viewport_height,
                                      config.switching.fov_y},
-                                    config.lod.min_reduction, 0, NULL};
+                                    config.lod.min_reduction, 0, NULL, 1};
     int rc = LP_OK;
     for (uint32_t m = 0; m < s.mesh_count && rc == LP_OK; ++m)
         if (s.meshes[m].instance_count && s.meshes[m].triangle_count) rc = run_mesh(&s, m, &opt, &chain);
