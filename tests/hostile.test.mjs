@@ -796,6 +796,25 @@ test('non-regular files: a piped input is read; directories, FIFOs and devices a
       assert.deepEqual(p, [], `${args[0]}: ${describeRun(r)}`);
     }
   });
+  // `lodpipe /dev/stdin < fifo`: the shell opened the named pipe (waiting for its writer) before lodpipe ran, so it
+  // is read like any pipe; a named pipe that is lodpipe's own stdout is still refused (reading it would wait on
+  // lodpipe itself).
+  await t.test('a named pipe as the standard input is read; one that is lodpipe\'s stdout is refused', (st) => {
+    const dir = tempDir(st);
+    const fifo = path.join(dir, 'f.glb');
+    assert.equal(spawnSync('mkfifo', [fifo]).status, 0);
+    const out = path.join(dir, 'out.glb');
+    const fed = runLodpipe(['/dev/stdin', '-o', out],
+                           { prefix: ['sh', '-c', 'f="$0"; d="$1"; shift; cat "$d" > "$f" & exec "$@" < "$f"', fifo, DUCK],
+                             timeout: 60000 });
+    assert.deepEqual(mainJobProblems(fed, out), [], describeRun(fed));
+    const direct = runLodpipe([DUCK, '-o', path.join(dir, 'direct.glb')]);
+    assert.ok(fs.readFileSync(out).equals(fs.readFileSync(path.join(dir, 'direct.glb'))), 'same bytes as from the file');
+    const own = runLodpipe(['inspect', fifo],
+                           { prefix: ['sh', '-c', 'f="$0"; cat "$f" > /dev/null & exec "$@" > "$f"', fifo], timeout: 20000 });
+    assert.equal(own.status, 4, describeRun(own));
+    assert.match(own.stderr, /f\.glb: is not a regular file \(a named pipe, FIFO\)$/m);
+  });
   await t.test('a device as input -> exit 4 without reading it', (st) => {
     const dir = tempDir(st);
     const r = runLodpipe(['/dev/zero', '-o', path.join(dir, 'out.glb')], { timeout: 60000 });

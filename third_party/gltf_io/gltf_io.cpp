@@ -417,13 +417,27 @@ bool is_anonymous_pipe(const struct stat &st)
     return same;
 }
 
+// Whether st is the file that this process's standard input holds open (when
+// `own`, the descriptor the loader opened itself, is not it: that one must not
+// vouch for the name it opened): `lodpipe /dev/stdin < fifo`, where the shell
+// opened the named pipe, waiting for its writer, before lodpipe ran. Only the
+// standard input: a named pipe that is lodpipe's stdout or stderr has lodpipe
+// itself as its writer, and reading it would wait for bytes that never come.
+bool is_standard_input(const struct stat &st, int own)
+{
+    struct stat held;
+    return own != 0 && fstat(0, &held) == 0 && held.st_dev == st.st_dev && held.st_ino == st.st_ino;
+}
+
 // Why the input at st cannot be read as a file, or "" when it can: a regular
-// file or an anonymous pipe. A named pipe is refused: opening it waits for a
-// writer, so a stray FIFO would hang a build forever; a device may never end
-// (/dev/zero).
-std::string unreadable_kind(const struct stat &st)
+// file, an anonymous pipe, or a named pipe the shell already opened as
+// lodpipe's standard input. Any other named pipe is refused: opening it
+// waits for a writer, so a stray FIFO would hang a build forever; a device may
+// never end (/dev/zero). own: the descriptor the loader opened, or -1.
+std::string unreadable_kind(const struct stat &st, int own)
 {
     if (S_ISREG(st.st_mode) || is_anonymous_pipe(st)) return "";
+    if (S_ISFIFO(st.st_mode) && is_standard_input(st, own)) return "";
     if (S_ISDIR(st.st_mode)) return "is a directory";
     if (S_ISFIFO(st.st_mode)) return "is not a regular file (a named pipe, FIFO)";
     if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) return "is not a regular file (a device)";
@@ -447,7 +461,7 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
         *why = std::string("cannot read (") + strerror(errno) + ")";
         return false;
     }
-    if (!(*why = unreadable_kind(st)).empty()) return false;
+    if (!(*why = unreadable_kind(st, -1)).empty()) return false;
     const std::string too_large = "is larger than the " + std::to_string(cap) + "-byte limit";
     if (uint64_t(st.st_size) > cap) {
         *why = too_large;
@@ -467,7 +481,7 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
         close(fd);
         return false;
     }
-    if (fstat(fd, &st) != 0 || !(*why = unreadable_kind(st)).empty()) {
+    if (fstat(fd, &st) != 0 || !(*why = unreadable_kind(st, fd)).empty()) {
         if (why->empty()) *why = std::string("cannot read (") + strerror(errno) + ")";
         return false;
     }
