@@ -48,6 +48,7 @@
 #include "sha256.h"
 #include "status.h"
 #include "stopsig.h"
+#include "threads.h"
 #include "version.h"
 
 extern char **environ;
@@ -1008,12 +1009,6 @@ static int check_written_outputs(batch *b)
 
 /* ---- the run -------------------------------------------------------------------- */
 
-static int online_cores(void)
-{
-    long n = sysconf(_SC_NPROCESSORS_ONLN);
-    return n < 1 ? 1 : n > 256 ? 256 : (int)n;
-}
-
 /* The jobs' pipeline.toml: the effective configuration, with the threads
  * each job gets when the configuration leaves them to lodpipe. */
 static int write_job_config(batch *b, lp_error *err)
@@ -1371,7 +1366,7 @@ int batch_run(const batch_options *options)
         free_batch(&b);
         return LP_IO;
     }
-    const int cores = online_cores();
+    const int cores = (int)lp_threads(0, 256);
     b.jobs_at_once = options->jobs > 0 ? options->jobs : cores;
     if (b.to_build && (size_t)b.jobs_at_once > b.to_build) b.jobs_at_once = (int)b.to_build;
     b.threads_per_job = options->config->run.threads ? options->config->run.threads

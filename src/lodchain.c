@@ -9,13 +9,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "accessor.h"
 #include "bvh.h"
 #include "jsonw.h"
 #include "measure.h"
 #include "sha256.h"
+#include "threads.h"
 
 static void warn(lodchain_summary *out, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void warn(lodchain_summary *out, const char *fmt, ...)
@@ -1078,13 +1078,6 @@ static size_t slot_bytes(const scene_mesh *mesh, const simplify_result *r, const
     return bytes;
 }
 
-static uint32_t thread_count(uint32_t threads)
-{
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    uint32_t n = threads ? threads : cores > 0 ? (uint32_t)cores : 1;
-    return n > MORPH_MAX_THREADS ? MORPH_MAX_THREADS : n;
-}
-
 /* Measures every kept level against LOD0 under every morph target: each
  * distinct target once, in batches measured on the job's threads. */
 static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, const simplify_result *r,
@@ -1124,7 +1117,7 @@ static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, cons
         for (; t < targets && work.slot_count < batch && !rc; ++t)
             if (same[t] == t) rc = fill_slot(s, m, w, r, kept, levels, level_count, t, &slots[work.slot_count++], err);
         atomic_store(&work.next, 0);
-        if (!rc) run_morph_work(&work, thread_count(threads));
+        if (!rc) run_morph_work(&work, lp_threads(threads, MORPH_MAX_THREADS));
         for (uint32_t i = 0; i < work.slot_count; ++i) free_slot(&slots[i], level_count);
     }
     for (uint32_t t = 0; t < targets && !rc; ++t)

@@ -39,6 +39,7 @@
 #include "radix.h"
 #include "registry.h"
 #include "thin.h"
+#include "threads.h"
 
 #define NONE UINT32_MAX
 #define GRIDLOG_RING 4096   /* grid updates in flight (about 100 bytes each) */
@@ -2900,9 +2901,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
         s->positions = s->moved_positions;
     }
     s->strict = o->strict_intersections;
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    s->thread_count = o->threads ? o->threads : (cores > 0 ? (uint32_t)cores : 1);
-    if (s->thread_count > MAX_THREADS) s->thread_count = MAX_THREADS;
+    s->thread_count = lp_threads(o->threads, MAX_THREADS);
     s->face_material = malloc(((size_t)nf + 1) * sizeof *s->face_material);
     s->corner_vertex = malloc((3 * (size_t)nf + 1) * sizeof *s->corner_vertex);
     /* taken over, not copied: the weld's wedges are where the corners start,
