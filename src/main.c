@@ -719,36 +719,29 @@ static int draco_encode_all(scene *s, const draco_job *jobs, uint32_t count, con
     return rc;
 }
 
-/* Why a simplified mesh kept no level (the main job's closing warning). Zero-area
- * triangles off the surface no longer keep a mesh from its levels (weld.h:
- * they ride along unchanged), so a mesh with an extent that kept none had no
- * level that removed lod.min_reduction of its triangles. */
-typedef enum no_level_reason { NO_LEVEL_FLAT, NO_LEVEL_SMALL, NO_LEVEL_REASONS } no_level_reason;
-
-static no_level_reason no_level_reason_of(const simplify_result *r)
-{
-    return r->diagonal > 0 ? NO_LEVEL_SMALL : NO_LEVEL_FLAT;
-}
-
 /* The warning of a run that simplified meshes but kept no level of any: the
  * output is then the input rewritten, and silence would read as LOD work
- * done. Names the reason most of those meshes share (a tie: the first in
- * no_level_reason's order); a flat mesh also has a warning of its own. */
-static void say_no_level_kept(const char *in, uint32_t simplified, const uint32_t count[NO_LEVEL_REASONS],
-                              double min_reduction)
+ * done. Names the reason most of those meshes share: no extent (`flat` of
+ * them, which also have a warning of their own), or no level that removed
+ * lod.min_reduction of its triangles (the rest: zero-area triangles off the
+ * surface no longer keep a mesh from its levels, weld.h). A tie names the
+ * flat ones. */
+static void say_no_level_kept(const char *in, uint32_t simplified, uint32_t flat, double min_reduction)
 {
-    const no_level_reason top = count[NO_LEVEL_SMALL] > count[NO_LEVEL_FLAT] ? NO_LEVEL_SMALL : NO_LEVEL_FLAT;
+    const uint32_t small = simplified - flat;
+    const int named_flat = flat >= small;
+    const uint32_t top = named_flat ? flat : small;
     char reason[96];
-    if (top == NO_LEVEL_FLAT)
+    if (named_flat)
         snprintf(reason, sizeof reason, "no extent (bounding-box diagonal 0)");
     else
         snprintf(reason, sizeof reason, "no level removed %g %% of its triangles, lod.min_reduction",
                  100.0 * min_reduction);
     char share[48];
-    if (count[top] == simplified)
+    if (top == simplified)
         snprintf(share, sizeof share, "%u mesh%s", simplified, simplified == 1 ? "" : "es");
     else
-        snprintf(share, sizeof share, "%u of %u meshes", count[top], simplified);
+        snprintf(share, sizeof share, "%u of %u meshes", top, simplified);
     lp_say("%s: warning: no mesh kept a LOD level; the output has no new MSFT_lod chain (%s: %s)", in, share,
            reason);
 }
@@ -788,7 +781,7 @@ static int cmd_lod(const cli *c)
     jsonw_raw(&j, ",\"meshes\":[");
     int first = 1;
     lp_error err = {0, ""};
-    uint32_t scene_meshes = 0, simplified = 0, kept_any = 0, no_level[NO_LEVEL_REASONS] = {0};
+    uint32_t scene_meshes = 0, simplified = 0, kept_any = 0, flat = 0;
     for (uint32_t m = 0; m < s.mesh_count; ++m) scene_meshes += s.meshes[m].instance_count && s.meshes[m].triangle_count;
     if (!scene_meshes && !c->quiet)
         lp_say("%s: warning: the default scene uses no mesh with triangles; nothing to simplify", in);
@@ -833,8 +826,8 @@ static int cmd_lod(const cli *c)
         if (!rc) rc = lodchain_write(&s, m, &w, &r, &chain, &sum, &err);
         if (!rc) {
             simplified++;
-            if (sum.level_count) kept_any++;
-            else no_level[no_level_reason_of(&r)]++;
+            kept_any += sum.level_count > 0;
+            flat += !sum.level_count && !(r.diagonal > 0);
         }
         if (!rc && draco) { /* encoded once every chain is written (draco_encode_all) */
             draco_jobs[draco_job_count] = (draco_job){m, plan, sum};
@@ -907,7 +900,7 @@ static int cmd_lod(const cli *c)
     if (c->depfile) rc = depfile_of(c, in, out, s.doc, &depfile);
     if (!rc) rc = write_document(c, in, s.doc, out, depfile, &j);
     free(depfile);
-    if (!rc && simplified && !kept_any && !c->quiet) say_no_level_kept(in, simplified, no_level, chain.min_reduction);
+    if (!rc && simplified && !kept_any && !c->quiet) say_no_level_kept(in, simplified, flat, chain.min_reduction);
     jsonw_raw(&j, "}\n");
     if (!rc && c->json) fputs(j.failed ? "{}\n" : j.text, stdout);
     jsonw_free(&j);
