@@ -141,6 +141,18 @@ function convert(input, out) {
   return r;
 }
 
+/** The KHR box written with `options` and converted: no output problem, every accessor equal to the
+ * uncompressed box's (the fallback data, or what the stream decodes to). Returns { dir, box }. */
+async function convertsToPlainData(st, options) {
+  const dir = tempDir(st);
+  const box = await writeKhrBox(dir, options);
+  const out = path.join(dir, 'out.glb');
+  convert(box.file, out);
+  assert.deepEqual(await outputProblems(out), []);
+  sameAccessorData(out, box.plainFile);
+  return { dir, box };
+}
+
 /** A refusal: exit 2, one line matching `needle`, no output file left in dir beyond `keep`. */
 function assertRefused(input, dir, needle, keep) {
   const out = path.join(dir, 'out.glb');
@@ -171,21 +183,11 @@ test('KHR_meshopt_compression input', { skip }, async (t) => {
   });
 
   await t.test('optional with a fallback file, version 0: decoded, no KHR object left, data = fallback', async (st) => {
-    const dir = tempDir(st);
-    const box = await writeKhrBox(dir, { required: false });
-    const out = path.join(dir, 'out.glb');
-    convert(box.file, out);
-    assert.deepEqual(await outputProblems(out), []);
-    sameAccessorData(out, box.plainFile);
+    await convertsToPlainData(st, { required: false });
   });
 
   await t.test('optional, version-1 positions: the fallback data is used, read and listed as an input', async (st) => {
-    const dir = tempDir(st);
-    const box = await writeKhrBox(dir, { v1: true, required: false });
-    const out = path.join(dir, 'out.glb');
-    convert(box.file, out);
-    assert.deepEqual(await outputProblems(out), []);
-    sameAccessorData(out, box.plainFile);
+    const { dir, box } = await convertsToPlainData(st, { v1: true, required: false });
     const r = runLodpipe([box.file, '-o', path.join(dir, 'main.glb'), '--json']);
     assert.equal(r.status, 0, describeRun(r));
     assert.ok(JSON.parse(r.stdout).inputs.includes(box.fallbackFile), `the fallback file is an input: ${r.stdout}`);
@@ -193,21 +195,11 @@ test('KHR_meshopt_compression input', { skip }, async (t) => {
   });
 
   await t.test('optional, version-1 positions, fallback in the BIN chunk beside the streams: the fallback is used', async (st) => {
-    const dir = tempDir(st);
-    const box = await writeKhrBox(dir, { v1: true, required: false, fallback: 'bin' });
-    const out = path.join(dir, 'out.glb');
-    convert(box.file, out);
-    assert.deepEqual(await outputProblems(out), []);
-    sameAccessorData(out, box.plainFile);
+    await convertsToPlainData(st, { v1: true, required: false, fallback: 'bin' });
   });
 
   await t.test('optional, COLOR filter: the fallback data is used', async (st) => {
-    const dir = tempDir(st);
-    const box = await writeKhrBox(dir, { color: true, required: false });
-    const out = path.join(dir, 'out.glb');
-    convert(box.file, out);
-    assert.deepEqual(await outputProblems(out), []);
-    sameAccessorData(out, box.plainFile);
+    await convertsToPlainData(st, { color: true, required: false });
   });
 
   await t.test('required, version-1 stream -> exit 2 naming the bufferView and the reason', async (st) => {
