@@ -23,10 +23,8 @@ import subprocess
 import sys
 import time
 
-from batch import git_commit, write_section
+from batch import BENCH, ROOT, git_commit, write_section
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-BENCH = os.path.join(ROOT, "bench")
 WORK = os.path.join(BENCH, "work", "morph")
 BEGIN, END = "<!-- section:morph -->", "<!-- /section:morph -->"
 T_START = time.monotonic()
