@@ -401,7 +401,19 @@ static int classify_neighbours(const sim *s, scratch *sc, uint32_t u)
     return (int)nclass;
 }
 
-/* The cost of collapsing u onto x: the quadric at x. With *full on entry,
+/* The cost of collapsing u onto x: the quadric at x. Inline, and its
+ * quadric never in memory: the region queues price every edge around a
+ * vertex each time one of its neighbours changes. */
+static inline double half_edge_cost(const sim *s, uint32_t u, uint32_t x)
+{
+    quadric q = s->quadrics[u];
+    quadric_add(&q, &s->quadrics[x]);
+    double b[3];
+    for (int k = 0; k < 3; ++k) b[k] = (double)s->positions[3 * (size_t)x + k] - s->origin[k];
+    return quadric_error(&q, b);
+}
+
+/* The cost of collapsing u onto x: half_edge_cost. With *full on entry,
  * also the position full-edge placement would give the kept vertex, *place:
  * the quadric's minimizer, on the segment [u, x] when the minimizer is
  * ill-defined or farther than the edge's length from its middle, rounded to
@@ -412,19 +424,19 @@ static int classify_neighbours(const sim *s, scratch *sc, uint32_t u)
  * (e.g. 46,265 against 45,653 at 1/64 %, 3,953 against 3,859 at 1/8 %). */
 static double edge_cost(const sim *s, uint32_t u, uint32_t x, int *full, double place[3])
 {
+    const double at_x = half_edge_cost(s, u, x);
+    if (!*full) return at_x;
     quadric q = s->quadrics[u];
     quadric_add(&q, &s->quadrics[x]);
     double pu[3], px[3], a[3], b[3], m[3], rel[3];
-    vertex_position(s, u, pu);
     vertex_position(s, x, px);
+    for (int k = 0; k < 3; ++k) b[k] = px[k] - s->origin[k];
+    vertex_position(s, u, pu);
     double len2 = 0.0, off2 = 0.0;
     for (int k = 0; k < 3; ++k) {
         a[k] = pu[k] - s->origin[k];
-        b[k] = px[k] - s->origin[k];
         len2 += (a[k] - b[k]) * (a[k] - b[k]);
     }
-    const double at_x = quadric_error(&q, b);
-    if (!*full) return at_x;
     int solved = quadric_minimizer(&q, m);
     for (int k = 0; k < 3 && solved; ++k) off2 += (m[k] - 0.5 * (a[k] + b[k])) * (m[k] - 0.5 * (a[k] + b[k]));
     if (!solved || !(off2 <= len2)) quadric_segment_minimizer(&q, a, b, m);
@@ -2179,15 +2191,15 @@ static queued_cost heap_pop(region_thread *t)
  * (NONE when u has no edge of finite cost). */
 static double queue_cost(const sim *s, uint32_t u, uint32_t *to)
 {
-    double best = INFINITY, place[3];
-    *to = NONE;
+    double best = INFINITY;
+    uint32_t best_to = NONE;
     for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c]) {
         if (!s->face_alive[c / 3] || s->corner_vertex[c] != u) continue;
-        int full = 0;
         const uint32_t x = s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3];
-        const double e = edge_cost(s, u, x, &full, place);
-        if (e < best) best = e, *to = x;
+        const double e = half_edge_cost(s, u, x);
+        if (e < best) best = e, best_to = x;
     }
+    *to = best_to;
     return best;
 }
 
@@ -2219,13 +2231,13 @@ static int region_queue_after(sim *s, region_thread *t, uint32_t x, uint32_t v, 
 {
     const uint32_t to = s->queued_to[x];
     if (to == NONE || to == v || to == dead || !queueable(s, x)) return region_queue(s, t, x);
-    int full = 0;
-    double place[3], best = edge_cost(s, x, to, &full, place);
+    double best = half_edge_cost(s, x, to);
     for (uint32_t c = s->vertex_first[x]; c != NONE; c = s->corner_next[c]) {
         if (!s->face_alive[c / 3] || s->corner_vertex[c] != x || s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3] != v)
             continue;
-        const double e = edge_cost(s, x, v, &full, place);
+        const double e = half_edge_cost(s, x, v);
         if (e < best) best = e, s->queued_to[x] = v;
+        break; /* the edge's one face where v follows x (another would give the same cost) */
     }
     if (s->verify) { /* the invariant checker's mode: the same value as region_queue's, to the bit */
         uint32_t to_full;
