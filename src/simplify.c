@@ -107,16 +107,19 @@ static int grow(void **data, size_t *cap, size_t need, size_t elem)
     return 0;
 }
 
-static int u32_push(u32vec *v, uint32_t x)
+/* Inline with the room test first (so is f64_push): the walks of the
+ * neighbourhoods and the certificate's records push millions of values,
+ * nearly all into room already there. */
+static inline __attribute__((always_inline)) int u32_push(u32vec *v, uint32_t x)
 {
-    if (grow((void **)&v->data, &v->cap, v->size + 1, sizeof *v->data)) return -1;
+    if (v->size == v->cap && grow((void **)&v->data, &v->cap, v->size + 1, sizeof *v->data)) return -1;
     v->data[v->size++] = x;
     return 0;
 }
 
-static int f64_push(f64vec *v, double x)
+static inline __attribute__((always_inline)) int f64_push(f64vec *v, double x)
 {
-    if (grow((void **)&v->data, &v->cap, v->size + 1, sizeof *v->data)) return -1;
+    if (v->size == v->cap && grow((void **)&v->data, &v->cap, v->size + 1, sizeof *v->data)) return -1;
     v->data[v->size++] = x;
     return 0;
 }
@@ -404,12 +407,12 @@ static int classify_neighbours(const sim *s, scratch *sc, uint32_t u)
 /* The cost of collapsing u onto x: the quadric at x. Inline, and its
  * quadric never in memory: the region queues price every edge around a
  * vertex each time one of its neighbours changes. */
-static inline double half_edge_cost(const sim *s, uint32_t u, uint32_t x)
+static inline __attribute__((always_inline)) double half_edge_cost(const sim *s, uint32_t u, uint32_t x)
 {
     quadric q = s->quadrics[u];
     quadric_add(&q, &s->quadrics[x]);
-    double b[3];
-    for (int k = 0; k < 3; ++k) b[k] = (double)s->positions[3 * (size_t)x + k] - s->origin[k];
+    const float *p = s->positions + 3 * (size_t)x;
+    const double b[3] = {p[0] - s->origin[0], p[1] - s->origin[1], p[2] - s->origin[2]};
     return quadric_error(&q, b);
 }
 
