@@ -2247,11 +2247,12 @@ static int region_queue_after(sim *s, region_thread *t, uint32_t x, uint32_t v, 
     const uint32_t to = s->queued_to[x];
     if (to == NONE || to == v || to == dead || !queueable(s, x)) return region_queue(s, t, x);
     double best = half_edge_cost(s, x, to);
+    int closer = 0;
     for (uint32_t c = s->vertex_first[x]; c != NONE; c = s->corner_next[c]) {
         if (!s->face_alive[c / 3] || s->corner_vertex[c] != x || s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3] != v)
             continue;
         const double e = half_edge_cost(s, x, v);
-        if (e < best) best = e, s->queued_to[x] = v;
+        if (e < best) best = e, s->queued_to[x] = v, closer = 1;
         break; /* the edge's one face where v follows x (another would give the same cost) */
     }
     if (s->verify) { /* the invariant checker's mode: the same value as region_queue's, to the bit */
@@ -2264,6 +2265,10 @@ static int region_queue_after(sim *s, region_thread *t, uint32_t x, uint32_t v, 
             return -1;
         }
     }
+    /* x's latest entry still waits in the queue (x was neither tried nor
+     * rejected since: it is not waiting) with the cost of its edge to `to`:
+     * unless the edge to v is cheaper, that entry stands, to the bit */
+    if (!closer) return 0;
     return heap_push(t, (queued_cost){best, x, ++s->queued[x]});
 }
 
