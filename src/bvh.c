@@ -491,30 +491,35 @@ typedef struct {
     double box_d2;
 } stack_entry;
 
-/* The traversal shared by both queries: visits leaves nearest box first and
- * prunes against the best distance so far (initially bound2). In decision
- * mode it stops at the first triangle within bound2 and reports it through
- * witness (may be NULL); otherwise it writes the exact closest to *closest.
+/* How a traversal ended. */
+enum { TRAVERSE_NONE = 0, TRAVERSE_CLOSEST = 1, TRAVERSE_WITHIN = 2 };
+
+/* The traversal shared by all queries: visits leaves nearest box first and
+ * prunes against the best distance so far (initially bound2). It stops at
+ * the first new best with d2 <= stop2 (TRAVERSE_WITHIN: a decision query
+ * passes stop2 = bound2, so that is the first triangle within bound2);
+ * otherwise it ends with the exact closest (TRAVERSE_CLOSEST). Either way
+ * that triangle goes to *hit.
  *
  * Stack bound: entries are the unvisited far siblings of the nodes on the
  * current root-to-node path, at most one per level, so BVH_MAX_DEPTH
  * entries suffice. */
-static int traverse(const bvh *tree, const double p[3], double bound2,
-                    bvh_triangle_filter filter, void *context, int decision,
-                    bvh_hit *closest, uint32_t *witness)
+static int traverse(const bvh *tree, const double p[3], double bound2, double stop2,
+                    bvh_triangle_filter filter, void *context, bvh_hit *hit)
 {
-    if (tree->triangle_count == 0 || !query_point_valid(p) || !(bound2 >= 0.0)) return 0;
+    if (tree->triangle_count == 0 || !query_point_valid(p) || !(bound2 >= 0.0)) return TRAVERSE_NONE;
 
     const bvh_node *nodes = tree->nodes;
     vec3d point = geom_vec3d_from_doubles(p);
     uint32_t best_triangle = UINT32_MAX;   /* none yet; every real number is lower */
     double best_d2 = bound2;
     vec3d best_point = point;
+    int ended = TRAVERSE_CLOSEST;
 
     stack_entry stack[BVH_MAX_DEPTH];
     unsigned top = 0;
     uint32_t current = 0;
-    if (!node_may_reach(box_distance2(&nodes[0], p), best_d2)) return 0;
+    if (!node_may_reach(box_distance2(&nodes[0], p), best_d2)) return TRAVERSE_NONE;
 
     for (;;) {
         const bvh_node *node = &nodes[current];
@@ -525,13 +530,13 @@ static int traverse(const bvh *tree, const double p[3], double bound2,
                 vec3d q;
                 double d2 = triangle_distance2(tree, triangle, &point, &q);
                 if (d2 < best_d2 || (d2 == best_d2 && triangle < best_triangle)) {
-                    if (decision) {
-                        if (witness) *witness = triangle;
-                        return 1;
-                    }
                     best_d2 = d2;
                     best_triangle = triangle;
                     best_point = q;
+                    if (d2 <= stop2) {
+                        ended = TRAVERSE_WITHIN;
+                        goto finished;
+                    }
                 }
             }
         } else {
@@ -564,14 +569,13 @@ static int traverse(const bvh *tree, const double p[3], double bound2,
     }
 
 finished:
-    if (best_triangle == UINT32_MAX) return 0;
-    if (!closest) return 1;
-    closest->triangle = best_triangle;
-    closest->distance2 = best_d2;
-    closest->point[0] = best_point.x;
-    closest->point[1] = best_point.y;
-    closest->point[2] = best_point.z;
-    return 1;
+    if (best_triangle == UINT32_MAX) return TRAVERSE_NONE;
+    hit->triangle = best_triangle;
+    hit->distance2 = best_d2;
+    hit->point[0] = best_point.x;
+    hit->point[1] = best_point.y;
+    hit->point[2] = best_point.z;
+    return ended;
 }
 
 /* r^2 for a radius; NaN (rejected by traverse) for negative or NaN r. */
@@ -595,7 +599,17 @@ int bvh_closest(const bvh *tree, const double p[3], double max_dist, bvh_hit *hi
 int bvh_closest_filtered(const bvh *tree, const double p[3], double max_dist,
                          bvh_triangle_filter filter, void *context, bvh_hit *hit)
 {
-    return traverse(tree, p, radius_squared(max_dist), filter, context, 0, hit, NULL);
+    bvh_hit found;
+    if (!traverse(tree, p, radius_squared(max_dist), -INFINITY, filter, context, &found)) return 0;
+    if (hit) *hit = found;
+    return 1;
+}
+
+int bvh_closest_unless_within(const bvh *tree, const double p[3], double max_dist, double enough,
+                              bvh_triangle_filter filter, void *context, bvh_hit *hit)
+{
+    /* NaN (a negative or NaN enough) never stops the traversal early */
+    return traverse(tree, p, radius_squared(max_dist), radius_squared(enough), filter, context, hit);
 }
 
 int bvh_any_within(const bvh *tree, const double p[3], double r)
@@ -607,5 +621,9 @@ int bvh_any_within_filtered(const bvh *tree, const double p[3], double r,
                             bvh_triangle_filter filter, void *context,
                             uint32_t *witness)
 {
-    return traverse(tree, p, radius_squared(r), filter, context, 1, NULL, witness);
+    const double r2 = radius_squared(r);
+    bvh_hit found;
+    if (!traverse(tree, p, r2, r2, filter, context, &found)) return 0;
+    if (witness) *witness = found.triangle;
+    return 1;
 }

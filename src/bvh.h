@@ -141,6 +141,15 @@ int bvh_closest(const bvh *tree, const double p[3], double max_dist, bvh_hit *hi
 int bvh_closest_filtered(const bvh *tree, const double p[3], double max_dist,
                          bvh_triangle_filter filter, void *context, bvh_hit *hit);
 
+/* bvh_closest_filtered that may stop early: returns 2 (with *hit) as soon as
+ * it meets a triangle with d2(p, t) <= enough^2, which is then within
+ * max_dist but not necessarily the closest; otherwise it returns what
+ * bvh_closest_filtered would (1 with the exact closest, or 0). For a caller
+ * that only needs the closest when it is farther than `enough`. A negative
+ * or NaN enough never stops early. */
+int bvh_closest_unless_within(const bvh *tree, const double p[3], double max_dist, double enough,
+                              bvh_triangle_filter filter, void *context, bvh_hit *hit);
+
 /* Decision query: 1 iff some triangle has d2(p, t) <= r^2 (r^2 computed in
  * double), else 0; stops at the first one found. 0 for negative or NaN r and
  * for non-finite p. */

@@ -416,9 +416,19 @@ static int piece_a(const cert_original *o, face_filter *filter, const cert_tri *
     geom_triangle_enclosing_ball(&p[0], &p[1], &p[2], &c, &r);
     const double cq[3] = {c.x, c.y, c.z};
     bvh_hit hit;
+    /* Once a piece has set *bound, most later ones fall below it: a witness
+     * within *bound - r then accepts the piece without changing *bound,
+     * exactly as the closest one would (it is no farther, and sqrt and + r
+     * round monotonically), so the search may stop at the first such one.
+     * The slack keeps the rounding of d + r from missing *bound, which
+     * would cost a second, exact search. */
+    const double enough = (geom_fmin(*bound, accept) - r) * (1.0 - 1e-12);
+    const int found = bvh_closest_unless_within(&o->tree, cq, eps, enough, witness_ok, filter, &hit);
+    if (found == 2 && sqrt(hit.distance2) + r <= geom_fmin(*bound, accept)) return 1;
     /* The ball's centre lies in the piece; when nothing of the right kind is
      * within eps of it, the piece cannot be certified at any depth. */
-    if (!bvh_closest_filtered(&o->tree, cq, eps, witness_ok, filter, &hit)) return 0;
+    if (found == 2 && !bvh_closest_filtered(&o->tree, cq, eps, witness_ok, filter, &hit)) return 0;
+    if (!found) return 0;
     const double d = sqrt(hit.distance2);
     if (d + r <= accept) {
         if (d + r > *bound) *bound = d + r;
