@@ -481,6 +481,27 @@ static double triangle_distance2(const bvh *tree, uint32_t triangle, const vec3d
     return geom_point_triangle_distance2(p, &a, &b, &c, closest);
 }
 
+/* Squared distance from p to the float box of the triangle's corners: a
+ * lower bound of d2(p, triangle) by the argument of bvh.h, as a node's box is
+ * (the node box holds this one, which holds the computed closest point). */
+static double triangle_box_distance2(const bvh *tree, uint32_t triangle, const double p[3])
+{
+    const uint32_t *corner = tree->indices + 3 * (size_t)triangle;
+    const float *a = tree->positions + 3 * (size_t)corner[0], *b = tree->positions + 3 * (size_t)corner[1],
+                *c = tree->positions + 3 * (size_t)corner[2];
+    double d2 = 0.0;
+    for (int axis = 0; axis < 3; axis++) {
+        float lo = a[axis] < b[axis] ? a[axis] : b[axis], hi = a[axis] < b[axis] ? b[axis] : a[axis];
+        lo = c[axis] < lo ? c[axis] : lo;
+        hi = c[axis] > hi ? c[axis] : hi;
+        double gap = 0.0;
+        if (p[axis] < lo) gap = lo - p[axis];
+        else if (p[axis] > hi) gap = p[axis] - hi;
+        d2 += gap * gap;
+    }
+    return d2;
+}
+
 static int query_point_valid(const double p[3])
 {
     return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]);
@@ -526,6 +547,7 @@ static int traverse(const bvh *tree, const double p[3], double bound2, double st
         if (node->count > 0) {
             for (uint32_t i = 0; i < node->count; i++) {
                 uint32_t triangle = tree->triangle_order[node->offset + i];
+                if (!node_may_reach(triangle_box_distance2(tree, triangle, p), best_d2)) continue;
                 if (filter && !filter(context, triangle)) continue;
                 vec3d q;
                 double d2 = triangle_distance2(tree, triangle, &point, &q);
