@@ -273,6 +273,30 @@ static double max_corner_distance(const vec3d piece[3], const vec3d tri[3], doub
     return sqrt(worst2);
 }
 
+/* The largest squared corner distance of the piece to tri, or INFINITY as
+ * soon as one exceeds cap2 (NaN too). */
+static double corners_below(const vec3d piece[3], const vec3d tri[3], double cap2)
+{
+    double worst2 = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        const double d2 = geom_point_triangle_distance2(&piece[k], &tri[0], &tri[1], &tri[2], NULL);
+        if (!(d2 <= cap2)) return INFINITY;
+        if (d2 > worst2) worst2 = d2;
+    }
+    return worst2;
+}
+
+/* Whether triangle t has one of corner[0 .. k - 1] as a vertex: a loop over
+ * the triangles around corner[k] met it already around that one (every
+ * triangle is in the ring of each of its vertices). */
+static int around_earlier(const cert_original *o, uint32_t t, const uint32_t *corner, int k)
+{
+    const uint32_t *tv = o->triangles + 3 * (size_t)t;
+    for (int j = 0; j < k; ++j)
+        if (tv[0] == corner[j] || tv[1] == corner[j] || tv[2] == corner[j]) return 1;
+    return 0;
+}
+
 static void split4(const vec3d p[3], vec3d out[4][3])
 {
     vec3d m01 = geom_lerp(p[0], p[1], 0.5), m12 = geom_lerp(p[1], p[2], 0.5), m20 = geom_lerp(p[2], p[0], 0.5);
@@ -435,19 +459,24 @@ static int piece_a(const cert_original *o, face_filter *filter, const cert_tri *
         return 1;
     }
     /* Convexity: the closest triangle or one around its corners may hold the
-     * whole piece within eps. */
-    double best = INFINITY;
-    for (int k = 0; k < 3; ++k) {
-        uint32_t v = o->triangles[3 * (size_t)hit.triangle + k];
-        for (uint32_t i = o->vertex_offsets[v]; i < o->vertex_offsets[v + 1]; ++i) {
+     * whole piece within eps. A triangle already measured around an earlier
+     * corner, or with a corner no nearer than the best's farthest, cannot
+     * lower the best. */
+    double best = INFINITY, best2 = INFINITY;
+    const uint32_t *hv = o->triangles + 3 * (size_t)hit.triangle;
+    for (int k = 0; k < 3; ++k)
+        for (uint32_t i = o->vertex_offsets[hv[k]]; i < o->vertex_offsets[hv[k] + 1]; ++i) {
             uint32_t t = o->vertex_triangles[i];
-            if (!witness_ok(filter, t)) continue;
+            if (around_earlier(o, t, hv, k) || !witness_ok(filter, t)) continue;
             vec3d tri[3];
             triangle_of(o, t, tri);
-            double m = max_corner_distance(p, tri, accept);
-            if (m < best) best = m;
+            const double worst2 = corners_below(p, tri, geom_fmin(accept * accept, best2));
+            const double m = sqrt(worst2);
+            if (m < best) {
+                best = m;
+                best2 = worst2;
+            }
         }
-    }
     if (best <= accept) {
         if (best > *bound) *bound = best;
         return 1;
@@ -519,7 +548,7 @@ int cert_face(const cert_original *o, const cert_tri *f, double eps, double *bou
         uint32_t v = f->vertex[k];
         for (uint32_t i = o->vertex_offsets[v]; i < o->vertex_offsets[v + 1]; ++i) {
             uint32_t t = o->vertex_triangles[i];
-            if (!witness_ok(&filter, t)) continue;
+            if (around_earlier(o, t, f->vertex, k) || !witness_ok(&filter, t)) continue;
             vec3d tri[3];
             triangle_of(o, t, tri);
             double m = max_corner_distance(p, tri, accept);
