@@ -792,11 +792,20 @@ static double cluster_within(const cert_original *o, uint32_t cluster, const cer
     return sqrt(worst2);
 }
 
+/* Whether face i is among the ones tried first. */
+static int tried_first(const uint32_t *first, uint32_t first_count, uint32_t i)
+{
+    for (uint32_t j = 0; j < first_count; ++j)
+        if (first[j] == i) return 1;
+    return 0;
+}
+
 int cert_cluster(const cert_original *o, uint32_t c, const cert_tri *faces, uint32_t count, double eps,
                  const uint32_t *first, uint32_t first_count, uint32_t *face, double *bound)
 {
     const double accept = eps * (1.0 - CERT_MARGIN);
     for (uint32_t i = 0; i < first_count + count; ++i) {
+        if (i >= first_count && tried_first(first, first_count, i - first_count)) continue; /* it failed then */
         const cert_tri *f = i < first_count ? &faces[first[i]] : &faces[i - first_count];
         double m = cluster_within(o, c, f, accept);
         if (m <= accept) {
