@@ -38,14 +38,14 @@ typedef struct {
  * x86-64's minsd and maxsd do. */
 static inline double geom_fmin(double a, double b)
 {
-    const double m = a < b ? a : b; /* one minsd */
-    return ((a != a) | (b != b)) ? (b != b ? a : b) : m; /* predictable: NaN is rare */
+    const double m = a < b ? a : b; /* one minsd: b when a is NaN, as the rule says */
+    return b != b ? a : m;          /* the one case minsd gets wrong */
 }
 
 static inline double geom_fmax(double a, double b)
 {
     const double m = a > b ? a : b;
-    return ((a != a) | (b != b)) ? (b != b ? a : b) : m;
+    return b != b ? a : m;
 }
 
 /* The box of a triangle's three corners. */

@@ -7,6 +7,7 @@
 #include <float.h>
 #include <math.h>
 #include <stdint.h>
+#include <string.h>
 
 #define RNG_SEED 0x6c6f64706970ULL
 #include "rng.h"
@@ -452,8 +453,28 @@ static void test_round_outward(void)
     CHECK(flo[2] == -INFINITY && fhi[2] == INFINITY, "NaN becomes infinite");
 }
 
+/* geom_fmin and geom_fmax keep the C library's NaN rule (a NaN argument
+ * yields the other one) and return b on a tie, so -0 against +0 too. */
+static void test_fmin_fmax_rules(void)
+{
+    const double values[] = {-1.5, -0.0, 0.0, 2.0, INFINITY, -INFINITY, NAN};
+    const int n = (int)(sizeof values / sizeof values[0]);
+    int wrong = 0;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            const double a = values[i], b = values[j], lo = geom_fmin(a, b), hi = geom_fmax(a, b);
+            const double want_lo = a != a ? b : b != b ? a : a < b ? a : b;
+            const double want_hi = a != a ? b : b != b ? a : a > b ? a : b;
+            wrong += memcmp(&lo, &want_lo, sizeof lo) != 0 && !(lo != lo && want_lo != want_lo);
+            wrong += memcmp(&hi, &want_hi, sizeof hi) != 0 && !(hi != hi && want_hi != want_hi);
+            if (a == a || b == b) wrong += (lo != lo) + (hi != hi); /* fmin: NaN only when both are */
+        }
+    CHECK(wrong == 0, "%d fmin/fmax results break the NaN or tie rule", wrong);
+}
+
 int main(void)
 {
+    RUN(test_fmin_fmax_rules);
     RUN(test_distance_matches_reference_on_random_triangles);
     RUN(test_distance_is_a_minimum_over_samples);
     RUN(test_distance_regions_exact);
