@@ -778,16 +778,21 @@ static double cluster_within(const cert_original *o, uint32_t cluster, const cer
     if (box_distance2(f, &centre) > reach * reach) return INFINITY; /* then every vertex is beyond accept */
     vec3d tri[3];
     for (int k = 0; k < 3; ++k) tri[k] = geom_vec3d_from_doubles(f->p[k]);
-    const double d = sqrt(geom_point_triangle_distance2(&centre, &tri[0], &tri[1], &tri[2], NULL));
+    geom_prepared_triangle face; /* measured from the centre and up to every vertex */
+    geom_prepare_triangle(&tri[0], &tri[1], &tri[2], &face);
+    const double d = sqrt(geom_point_prepared_triangle_distance2(&centre, &face));
     if (d + c->radius <= accept) return d + c->radius;
     /* every vertex is within radius of the centre, so at least d - radius
      * from F (1-Lipschitz): none within accept, when that exceeds it */
     if (d - c->radius > accept) return INFINITY;
     /* convexity: every triangle is within accept when its corners are */
     double worst2 = 0.0;
+    const double accept2 = accept * accept;
     for (uint32_t i = o->cluster_vertex_start[cluster]; i < o->cluster_vertex_start[cluster + 1]; ++i) {
         const vec3d x = vertex_of(o, o->cluster_vertices[i]);
-        if (!point_within(&x, tri, accept, &worst2)) return INFINITY;
+        const double d2 = geom_point_prepared_triangle_distance2(&x, &face);
+        if (!(d2 <= accept2)) return INFINITY;
+        if (d2 > worst2) worst2 = d2;
     }
     return sqrt(worst2);
 }

@@ -16,10 +16,11 @@
 #include "geom.h"
 
 #include <float.h>
+#include <stddef.h>
 
 /* Below this ratio of |normal| to the squared longest edge (i.e. of width to
  * length), point-triangle distance also measures all three edges; see
- * triangle_closest_point. */
+ * triangle_well_shaped. */
 #define THIN_TRIANGLE_RATIO 1e-4
 
 /* v clamped into [min(a, b, c), max(a, b, c)]. */
@@ -67,12 +68,32 @@ static void keep_nearer(double candidate_d2, vec3d candidate, double *best_d2, v
     }
 }
 
-/* The closest point of triangle abc to p; see geom_point_triangle_distance2. */
-static vec3d triangle_closest_point(const vec3d *p, const vec3d *a, const vec3d *b,
-                                    const vec3d *c)
+/* Whether the face point of triangle (ab, ac, bc, nn = |ab x ac|^2) can be
+ * trusted. Thin: width w = |n| / longest below THIN_TRIANGLE_RATIO * longest.
+ * The normalized weights then move the face point by up to ~ulp * |ap| *
+ * longest / w (a convex combination still, so only ever too far), while the
+ * nearest edge is off by at most w / 2: taking the nearer of both bounds the
+ * error by ~sqrt(ulp * |ap| * longest) for any sliver. A positive test, so
+ * that NaN counts as thin. */
+static inline int triangle_well_shaped(vec3d ab, vec3d ac, vec3d bc, double nn)
 {
-    vec3d ab = geom_sub(*b, *a);
-    vec3d ac = geom_sub(*c, *a);
+    double longest2 = geom_dot(ab, ab);
+    if (geom_dot(ac, ac) > longest2) longest2 = geom_dot(ac, ac);
+    if (geom_dot(bc, bc) > longest2) longest2 = geom_dot(bc, bc);
+    double thin_bound = THIN_TRIANGLE_RATIO * longest2;
+    return nn > thin_bound * thin_bound;
+}
+
+/* The closest point of triangle abc to p; see geom_point_triangle_distance2.
+ * With pre (abc's prepared values) the point-independent quantities are
+ * taken from it instead of being computed here: the same operations on the
+ * same operands, done once, so the same bits. Inlined into both callers, so
+ * that each is compiled for its case (pre NULL or not), without branches. */
+static inline __attribute__((always_inline)) vec3d closest_point(const vec3d *p, const vec3d *a, const vec3d *b,
+                                                                  const vec3d *c, const geom_prepared_triangle *pre)
+{
+    vec3d ab = pre ? pre->ab : geom_sub(*b, *a);
+    vec3d ac = pre ? pre->ac : geom_sub(*c, *a);
     vec3d ap = geom_sub(*p, *a);
 
     /* Vertex regions. (x - v) . (p - v) <= 0 for both edges at v means no
@@ -94,24 +115,14 @@ static vec3d triangle_closest_point(const vec3d *p, const vec3d *a, const vec3d 
      * weight_c is the signed area of (a, b, p) against n, and so on. Their
      * error is ~ulp * |n| * |edge| * |p - vertex|, not the square of the query
      * distance as with Ericson's dot-product form. */
-    vec3d n = geom_cross(ab, ac);
-    vec3d bc = geom_sub(*c, *b);
-    double nn = geom_dot(n, n);
+    vec3d n = pre ? pre->n : geom_cross(ab, ac);
+    vec3d bc = pre ? pre->bc : geom_sub(*c, *b);
+    double nn = pre ? pre->nn : geom_dot(n, n);
     double weight_c = geom_dot(n, geom_cross(ab, ap));
     double weight_b = geom_dot(n, geom_cross(ap, ac));
     double weight_a = geom_dot(n, geom_cross(bc, bp));
 
-    double longest2 = geom_dot(ab, ab);
-    if (geom_dot(ac, ac) > longest2) longest2 = geom_dot(ac, ac);
-    if (geom_dot(bc, bc) > longest2) longest2 = geom_dot(bc, bc);
-    /* Thin: width w = |n| / longest below THIN_TRIANGLE_RATIO * longest. The
-     * normalized weights then move the face point by up to ~ulp * |ap| *
-     * longest / w (a convex combination still, so only ever too far), while
-     * the nearest edge is off by at most w / 2: taking the nearer of both
-     * bounds the error by ~sqrt(ulp * |ap| * longest) for any sliver. A
-     * positive test, so that NaN counts as thin. */
-    double thin_bound = THIN_TRIANGLE_RATIO * longest2;
-    int well_shaped = nn > thin_bound * thin_bound;
+    int well_shaped = pre ? pre->well_shaped : triangle_well_shaped(ab, ac, bc, nn);
 
     double best_d2 = INFINITY;
     vec3d best = *a;
@@ -149,9 +160,27 @@ static vec3d triangle_closest_point(const vec3d *p, const vec3d *a, const vec3d 
 double geom_point_triangle_distance2(const vec3d *p, const vec3d *a, const vec3d *b,
                                      const vec3d *c, vec3d *closest)
 {
-    vec3d q = triangle_closest_point(p, a, b, c);
+    vec3d q = closest_point(p, a, b, c, NULL);
     if (closest) *closest = q;
     return geom_distance2(*p, q);
+}
+
+void geom_prepare_triangle(const vec3d *a, const vec3d *b, const vec3d *c, geom_prepared_triangle *t)
+{
+    t->a = *a;
+    t->b = *b;
+    t->c = *c;
+    t->ab = geom_sub(*b, *a);
+    t->ac = geom_sub(*c, *a);
+    t->bc = geom_sub(*c, *b);
+    t->n = geom_cross(t->ab, t->ac);
+    t->nn = geom_dot(t->n, t->n);
+    t->well_shaped = triangle_well_shaped(t->ab, t->ac, t->bc, t->nn);
+}
+
+double geom_point_prepared_triangle_distance2(const vec3d *p, const geom_prepared_triangle *t)
+{
+    return geom_distance2(*p, closest_point(p, &t->a, &t->b, &t->c, t));
 }
 
 void geom_triangle_enclosing_ball(const vec3d *a, const vec3d *b, const vec3d *c,

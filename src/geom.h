@@ -162,6 +162,20 @@ double geom_point_segment_distance2(const vec3d *p, const vec3d *a, const vec3d 
 double geom_point_triangle_distance2(const vec3d *p, const vec3d *a, const vec3d *b,
                                      const vec3d *c, vec3d *closest);
 
+/* A triangle's point-independent quantities, for measuring many points
+ * against one triangle: geom_point_prepared_triangle_distance2(p, t) is
+ * geom_point_triangle_distance2(p, a, b, c, NULL) bit for bit (the same
+ * operations; only the ones that do not involve p are done once). */
+typedef struct geom_prepared_triangle {
+    vec3d a, b, c;
+    vec3d ab, ac, bc, n; /* b - a, c - a, c - b, ab x ac */
+    double nn;           /* n . n */
+    int well_shaped;     /* not thin (see above): the face point is taken alone */
+} geom_prepared_triangle;
+
+void geom_prepare_triangle(const vec3d *a, const vec3d *b, const vec3d *c, geom_prepared_triangle *t);
+double geom_point_prepared_triangle_distance2(const vec3d *p, const geom_prepared_triangle *t);
+
 /* ---- minimal enclosing ball ---------------------------------------------- */
 
 /* The smallest ball containing triangle abc (and hence, by convexity, all of

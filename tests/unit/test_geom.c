@@ -453,6 +453,31 @@ static void test_round_outward(void)
     CHECK(flo[2] == -INFINITY && fhi[2] == INFINITY, "NaN becomes infinite");
 }
 
+/* A prepared triangle gives geom_point_triangle_distance2's value bit for
+ * bit: on random, thin (third vertex 1e-15 .. 1e-2 off an edge's line) and
+ * degenerate triangles, for points near, on and far from them. */
+static void test_prepared_distance_identical(void)
+{
+    int differ = 0;
+    for (int i = 0; i < 20000; i++) {
+        vec3d a = rng_point(1.0), b = rng_point(1.0), c = rng_point(1.0);
+        const int shape = i % 4;
+        if (shape == 1) c = geom_add_scaled(geom_lerp(a, b, rng_uniform(-0.5, 1.5)), rng_point(1.0),
+                                            pow(10.0, rng_uniform(-15.0, -2.0)));
+        if (shape == 2) c = geom_lerp(a, b, rng_uniform(-0.5, 1.5));
+        if (shape == 3) c = b;
+        geom_prepared_triangle t;
+        geom_prepare_triangle(&a, &b, &c, &t);
+        for (int k = 0; k < 8; k++) {
+            vec3d p = k == 0 ? geom_lerp(geom_lerp(a, b, 0.3), c, 0.4) : rng_point(k < 4 ? 1.5 : 1e3);
+            double want = geom_point_triangle_distance2(&p, &a, &b, &c, NULL);
+            double got = geom_point_prepared_triangle_distance2(&p, &t);
+            differ += memcmp(&want, &got, sizeof want) != 0;
+        }
+    }
+    CHECK(differ == 0, "%d prepared distances differ in some bit", differ);
+}
+
 /* geom_fmin and geom_fmax keep the C library's NaN rule (a NaN argument
  * yields the other one) and return b on a tie, so -0 against +0 too. */
 static void test_fmin_fmax_rules(void)
@@ -475,6 +500,7 @@ static void test_fmin_fmax_rules(void)
 int main(void)
 {
     RUN(test_fmin_fmax_rules);
+    RUN(test_prepared_distance_identical);
     RUN(test_distance_matches_reference_on_random_triangles);
     RUN(test_distance_is_a_minimum_over_samples);
     RUN(test_distance_regions_exact);
