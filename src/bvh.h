@@ -19,7 +19,8 @@
  * every ancestor box, so the true distance to a node box is a lower bound of
  * every computed distance below it up to ~10 ulps of relative rounding. A
  * node is skipped only when its computed box distance, shrunk by a relative
- * 1e-14, still exceeds the current bound; ties are never skipped.
+ * 1e-14, still exceeds the current bound; ties are never skipped. A leaf's
+ * triangle is skipped by the same test on its own vertex box.
  *
  * Data. The tree borrows the caller's positions and indices (no copy): they
  * must stay alive and unchanged while the tree is used. Nodes are one flat

@@ -235,7 +235,8 @@ typedef struct {
 
 /* Runs `queries` random queries against brute force, through bvh_closest,
  * bvh_any_within just below / just above the distance and at random radii,
- * and bvh_closest with max_dist on both sides of the distance. */
+ * bvh_closest_unless_within at random radii, and bvh_closest with max_dist
+ * on both sides of the distance. */
 static mismatch_counts compare_with_brute_force(const mesh *m, const bvh *tree, int queries,
                                                 double extent)
 {
@@ -265,6 +266,17 @@ static mismatch_counts compare_with_brute_force(const mesh *m, const bvh *tree, 
         double r = rng_uniform(0.0, 2.0) * d;
         if (bvh_any_within(tree, p, r) != brute_any_within(m, p, r, NULL, NULL))
             counts.any_mismatch++;
+
+        /* stopping early: a triangle within `enough` (measured as ever),
+         * else the exact answer */
+        double enough = rng_uniform(0.0, 2.0) * d;
+        bvh_hit early = no_hit();
+        int ended = bvh_closest_unless_within(tree, p, INFINITY, enough, NULL, NULL, &early);
+        if (ended == 2 ? !(early.distance2 <= enough * enough) || early.distance2 < expect.distance2 ||
+                             early.distance2 != bvh_triangle_distance2(tree, early.triangle, p)
+                       : ended != expect_found || (ended && (early.triangle != expect.triangle ||
+                                                             early.distance2 != expect.distance2)))
+            counts.limit_mismatch++;
 
         bvh_hit limited = no_hit();
         if (bvh_closest(tree, p, below, &limited) != 0) counts.limit_mismatch++;
