@@ -257,11 +257,15 @@ typedef struct sim {
     uint32_t batch_stamp;
     quadric *quadrics;
     double origin[3];
-    /* every alive face, for the self-intersection test; rebuilt when the
-     * faces have halved, so cells follow the faces' growing size */
+    /* every alive face, for the self-intersection test of the global
+     * passes; rebuilt when the faces have halved, so cells follow the faces'
+     * growing size. Built when a level's first pass needs it (grid_current
+     * 0), or after the region rounds: the rounds use grids of their own, so
+     * one built at the level's start would be thrown away unread. */
     facegrid grid;
     gridlog grid_log; /* the commit's updates of grid (gridlog.h) */
     uint32_t grid_built_with;
+    int grid_current; /* grid holds the level's alive faces as they are */
     uint32_t faces_alive; /* count of face_alive */
     /* the stars committed in the current batch, for the commit's re-test of
      * crossings, which concerns only these faces */
@@ -1828,8 +1832,9 @@ static int merge_clusters(sim *s)
  * n - 1 when faces is NULL), entered under their own numbers or, with
  * local, under their index in faces. Cells are twice the faces' mean
  * extent: a query then visits few faces that are not near it. Except over
- * the whole original (the first level's start, the memory peak), where 4x
- * spans fewer cells per face: measured on a 1.1M-triangle chain, 2x
+ * the whole original (the first level's passes when no region round ran
+ * before them), where 4x spans fewer cells per face: measured on a
+ * 1.1M-triangle chain (when its first level still built this grid), 2x
  * throughout cost 19 bytes a triangle more at the peak, 4x throughout 1.4 s
  * more time. Returns the number of alive faces, or -1 when memory runs out. */
 static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n, int local, uint32_t capacity)
@@ -1865,6 +1870,7 @@ static int grid_rebuild(sim *s)
     const long alive = grid_fill(s, &s->grid, NULL, s->nf, 0, s->nf);
     if (alive < 0) return -1;
     s->grid_built_with = s->faces_alive = (uint32_t)alive;
+    s->grid_current = 1;
     return 0;
 }
 
@@ -1876,6 +1882,7 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
 {
     simplify_stats *st = s->stats;
     double t0 = lp_seconds();
+    if (!s->grid_current && grid_rebuild(s)) return -1;
     if (merge_clusters(s)) return -1;
     size_t n = collect_candidates(s, ranks);
     long commits = 0;
@@ -3002,34 +3009,18 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
 
 /* ---- levels -------------------------------------------------------------------- */
 
-typedef struct thin_job {
-    sim *s;
-    int rc;
-} thin_job;
-
-static void *build_thin_map(void *p)
-{
-    thin_job *job = p;
-    sim *s = job->s;
-    job->rc = thin_map_build(&s->thin, 2.0 * s->eps, s->w->positions, s->w->vertex_count, s->w->triangle_vertices,
-                             s->nf, s->face_material, s->special);
-    return NULL;
-}
-
-/* The face grid and (unless strict) the thin map for a level's eps. They
- * share no state, so with a second thread the map is built beside the grid
- * (both read the whole original at the first level). Returns 0, or -1 when
- * memory runs out. */
+/* The thin map for a level's eps (unless strict); the level's face grid
+ * waits for the passes (grid_current). Returns 0, or -1 when memory runs
+ * out. */
 static int level_structures(sim *s)
 {
     thin_map_free(&s->thin);
-    thin_job job = {s, 0};
-    pthread_t thread;
-    const int beside = !s->strict && s->thread_count > 1 && pthread_create(&thread, NULL, build_thin_map, &job) == 0;
-    if (!s->strict && !beside) build_thin_map(&job);
-    const int grid_rc = grid_rebuild(s);
-    if (beside) pthread_join(thread, NULL);
-    return grid_rc || job.rc ? -1 : 0;
+    s->grid_current = 0;
+    if (s->strict) return 0;
+    return thin_map_build(&s->thin, 2.0 * s->eps, s->w->positions, s->w->vertex_count, s->w->triangle_vertices, s->nf,
+                          s->face_material, s->special)
+               ? -1
+               : 0;
 }
 
 /* Faces per level whose bound tighten_bounds may try to lower. */
