@@ -253,6 +253,12 @@ typedef struct sim {
      * the first removal sweep, after the first pass's memory peak) */
     uint32_t *change_stamp, *reject_stamp, *removal_stamp;
     uint32_t commit_clock;
+    /* the passes' ordering cost of each vertex (collect_candidates), kept
+     * from one pass to the next: cost_clock[u] is the clock it was computed
+     * at (NONE: never), cost_faces[u] how many faces u had then. Allocated
+     * by the first pass, after the first level's memory peak. */
+    double *cost;
+    uint32_t *cost_clock, *cost_faces;
     uint32_t *vertex_stamp; /* batch reservations: the batch_stamp of the batch whose W holds the vertex */
     uint32_t batch_stamp;
     quadric *quadrics;
@@ -1614,8 +1620,8 @@ static void sort_ranked(ranked *a, size_t n)
  * neighbour (an ordering hint; evaluation applies the rules). The alive
  * vertices are compacted to the front of the range, in order, and the
  * candidates written to out[begin ..], unsorted. Reads the mesh and writes
- * only the range's own entries (movable, out, reject_stamp of its vertices),
- * so disjoint ranges may be collected at once. */
+ * only the range's own entries (movable, out, reject_stamp and the cost
+ * cache of its vertices), so disjoint ranges may be collected at once. */
 typedef struct collect_range {
     sim *s;
     ranked *out;
@@ -1623,12 +1629,43 @@ typedef struct collect_range {
     uint32_t kept, count; /* results: alive vertices, candidates */
 } collect_range;
 
+/* The cost of u's cheapest edge (INFINITY: u has no face), the ordering
+ * hint of collect_candidates. It reads u's faces and the quadric and place
+ * of each neighbour, which change only by a commit that stamps u
+ * (stamp_changes: the heir and every vertex of a face around it), or by a
+ * face of u dying, which the count of u's faces tells: so the cost computed
+ * at a clock stays exact until u is stamped after it or its face count
+ * falls. Most vertices are unchanged from one pass to the next. */
+static double vertex_cost(sim *s, uint32_t u)
+{
+    uint32_t faces = 0;
+    const int kept = s->cost_clock[u] != NONE && s->change_stamp[u] <= s->cost_clock[u];
+    if (kept) {
+        for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c])
+            faces += s->face_alive[c / 3] && s->corner_vertex[c] == u;
+        if (faces == s->cost_faces[u]) return s->cost[u];
+        faces = 0;
+    }
+    double best = INFINITY, place[3];
+    for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c]) {
+        if (!s->face_alive[c / 3] || s->corner_vertex[c] != u) continue;
+        faces++;
+        uint32_t x = s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3];
+        int full = 0; /* the order needs no placement */
+        double e = edge_cost(s, u, x, &full, place);
+        if (e < best) best = e;
+    }
+    s->cost[u] = best;
+    s->cost_clock[u] = s->commit_clock;
+    s->cost_faces[u] = faces;
+    return best;
+}
+
 static void *collect_range_run(void *p)
 {
     collect_range *r = p;
     sim *s = r->s;
     uint32_t kept = r->begin, n = r->begin;
-    double place[3];
     for (uint32_t i = r->begin; i < r->end; ++i) {
         const uint32_t u = s->movable[i];
         if (!s->vertex_alive[u]) continue;
@@ -1637,14 +1674,7 @@ static void *collect_range_run(void *p)
             if (!changed_since(s, u, s->reject_stamp[u])) continue;
             s->reject_stamp[u] = NONE;
         }
-        double best = INFINITY;
-        for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c]) {
-            if (!s->face_alive[c / 3] || s->corner_vertex[c] != u) continue;
-            uint32_t x = s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3];
-            int full = 0; /* the order needs no placement */
-            double e = edge_cost(s, u, x, &full, place);
-            if (e < best) best = e;
-        }
+        const double best = vertex_cost(s, u);
         if (best < INFINITY) {
             r->out[n].cost = best;
             r->out[n].u = u;
@@ -1656,13 +1686,21 @@ static void *collect_range_run(void *p)
     return NULL;
 }
 
-/* Every candidate of the level into out (unsorted; the count is returned),
- * the movable list compacted to its alive vertices. The movable vertices are
+/* Every candidate of the level into out (unsorted; the count is returned,
+ * or -1 when memory runs out), the movable list compacted to its alive
+ * vertices. The movable vertices are
  * cut into one contiguous range per thread and the ranges' results joined in
  * range order, so movable and the set of candidates are what one thread
  * would give; ranking them (rank_cheapest) then fixes their order. */
-static size_t collect_candidates(sim *s, ranked *out)
+static long collect_candidates(sim *s, ranked *out)
 {
+    if (!s->cost) {
+        s->cost = malloc(((size_t)s->nv + 1) * sizeof *s->cost);
+        s->cost_clock = malloc(((size_t)s->nv + 1) * sizeof *s->cost_clock);
+        s->cost_faces = malloc(((size_t)s->nv + 1) * sizeof *s->cost_faces);
+        if (!s->cost || !s->cost_clock || !s->cost_faces) return s->serial.oom = 1, -1;
+        memset(s->cost_clock, 0xff, ((size_t)s->nv + 1) * sizeof *s->cost_clock);
+    }
     collect_range ranges[MAX_THREADS];
     pthread_t threads[MAX_THREADS];
     uint32_t parts = s->movable_count >= COLLECT_PARALLEL_MIN ? s->thread_count : 1;
@@ -1688,7 +1726,7 @@ static size_t collect_candidates(sim *s, ranked *out)
         n += ranges[t].count;
     }
     s->movable_count = kept;
-    return n;
+    return (long)n;
 }
 
 /* Puts the `share` cheapest of a[0 .. n) in a[0 .. share), in order (the
@@ -1884,7 +1922,9 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
     double t0 = lp_seconds();
     if (!s->grid_current && grid_rebuild(s)) return -1;
     if (merge_clusters(s)) return -1;
-    size_t n = collect_candidates(s, ranks);
+    const long collected = collect_candidates(s, ranks);
+    if (collected < 0) return -1;
+    size_t n = (size_t)collected;
     long commits = 0;
     const size_t share = n <= PASS_MIN ? n : n / PASS_SHARE > PASS_MIN ? n / PASS_SHARE : PASS_MIN;
     *waiting = n - share;
@@ -2887,6 +2927,9 @@ static void sim_free(sim *s)
     free(s->change_stamp);
     free(s->reject_stamp);
     free(s->removal_stamp);
+    free(s->cost);
+    free(s->cost_clock);
+    free(s->cost_faces);
     free(s->vertex_stamp);
     free(s->quadrics);
     facegrid_free(&s->grid);
