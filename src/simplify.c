@@ -238,7 +238,10 @@ typedef struct sim {
      * unit nf + c; its certified bound and the batch that last changed it */
     double *unit_bound;
     uint32_t *unit_stamp;
-    atomic_uchar *cluster_dirty; /* one of its originals was re-registered: try it whole again */
+    /* bit c % 64 of word c / 64: one of cluster c's originals was
+     * re-registered, try it whole again (words: a pass's sweep over a mesh's
+     * clusters skips 64 clean ones at a time) */
+    atomic_uint_least64_t *cluster_dirty;
     uint32_t *vertex_first;
     uint8_t *vertex_alive;
     /* the alive vertices that are not locked, ascending: the passes late in
@@ -1250,7 +1253,19 @@ static records records_of(const sim *s, const candidate *c)
  * Regions of one round may mark the same cluster. */
 static void mark_cluster_dirty(sim *s, uint32_t cluster)
 {
-    atomic_store_explicit(&s->cluster_dirty[cluster], 1, memory_order_relaxed);
+    atomic_fetch_or_explicit(&s->cluster_dirty[cluster / 64], (uint_least64_t)1 << (cluster % 64),
+                             memory_order_relaxed);
+}
+
+/* Marks every cluster dirty. */
+static void mark_clusters_dirty(sim *s)
+{
+    const uint32_t n = s->orig.cluster_count;
+    for (uint32_t w = 0; w < (n + 63) / 64; ++w) {
+        const uint32_t bits = n - 64 * w < 64 ? n - 64 * w : 64;
+        atomic_store_explicit(&s->cluster_dirty[w], bits == 64 ? ~(uint_least64_t)0 : ((uint_least64_t)1 << bits) - 1,
+                              memory_order_relaxed);
+    }
 }
 
 /* The certified change c's records: its changed faces' bounds, and each
@@ -1833,9 +1848,19 @@ static int merge_clusters(sim *s)
     scratch *sc = &s->serial;
     u32vec merged = {0};
     if (grow((void **)&sc->tris, &sc->tris_cap, MERGE_FACES_TRIED, sizeof *sc->tris)) return sc->oom = 1, -1;
+    uint_least64_t dirty = 0;
     for (uint32_t c = 0; c < s->orig.cluster_count; ++c) {
-        if (!atomic_load_explicit(&s->cluster_dirty[c], memory_order_relaxed)) continue;
-        atomic_store_explicit(&s->cluster_dirty[c], 0, memory_order_relaxed);
+        if (c % 64 == 0) {
+            if (!atomic_load_explicit(&s->cluster_dirty[c / 64], memory_order_relaxed)) {
+                c += 63;
+                continue;
+            }
+            dirty = atomic_exchange_explicit(&s->cluster_dirty[c / 64], 0, memory_order_relaxed);
+        }
+        if (!((dirty >> (c % 64)) & 1)) continue;
+        /* whole already: its originals hold no slot (registry.h), so no
+         * face to try (every cluster is dirty at a level's start) */
+        if (registry_cluster_face(&s->reg, c) != REGISTRY_NONE) continue;
         const cert_cluster_info *info = &s->orig.clusters[c];
         if (info->material == CERT_MIXED || info->cone_sin > 1.0) continue;
         const uint32_t *order = s->orig.tree.triangle_order + info->first;
@@ -3044,7 +3069,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     const size_t units = (size_t)nf + clusters;
     s->unit_bound = calloc(units + 1, sizeof *s->unit_bound);
     s->unit_stamp = calloc(units + 1, sizeof *s->unit_stamp);
-    s->cluster_dirty = malloc(((size_t)clusters + 1) * sizeof *s->cluster_dirty);
+    s->cluster_dirty = malloc(((size_t)clusters / 64 + 1) * sizeof *s->cluster_dirty);
     if (!s->unit_bound || !s->unit_stamp || !s->cluster_dirty) return -1;
     if (registry_init(&s->reg, nf, s->orig.cluster_of, clusters)) return -1;
     return 0;
@@ -3215,8 +3240,7 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
         level->eps = s->eps;
         memset(s->reject_stamp, 0xff, (size_t)w->vertex_count * sizeof *s->reject_stamp);
         if (s->removal_stamp) memset(s->removal_stamp, 0xff, (size_t)w->vertex_count * sizeof *s->removal_stamp);
-        for (uint32_t c = 0; c < s->orig.cluster_count; ++c) /* a larger eps may hold more of them whole */
-            atomic_store_explicit(&s->cluster_dirty[c], 1, memory_order_relaxed);
+        mark_clusters_dirty(s); /* a larger eps may hold more of them whole */
         if (level_structures(s)) {
             rc = lp_fail(err, LP_INVALID, "out of memory");
             goto done;
