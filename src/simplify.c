@@ -275,6 +275,12 @@ typedef struct sim {
     gridlog grid_log; /* the commit's updates of grid (gridlog.h) */
     uint32_t grid_built_with;
     int grid_current; /* grid holds the level's alive faces as they are */
+    /* ascending, the faces that were alive when it was last compacted
+     * (live_faces): a superset of the alive faces, since faces only die.
+     * The sweeps over faces late in a level (a grid's rebuild, the level's
+     * snapshot) visit these, not every face of the original. NULL until
+     * the first sweep. */
+    uint32_t *face_list, face_list_count;
     uint32_t faces_alive; /* count of face_alive */
     /* the stars committed in the current batch, for the commit's re-test of
      * crossings, which concerns only these faces */
@@ -1927,10 +1933,28 @@ static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n
     return alive;
 }
 
+/* Compacts face_list to the alive faces (made at the first call). Returns
+ * 0, or -1 when memory runs out. */
+static int live_faces(sim *s)
+{
+    if (!s->face_list) {
+        s->face_list = malloc(((size_t)s->nf + 1) * sizeof *s->face_list);
+        if (!s->face_list) return -1;
+        for (uint32_t f = 0; f < s->nf; ++f) s->face_list[f] = f;
+        s->face_list_count = s->nf;
+    }
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < s->face_list_count; ++i)
+        if (s->face_alive[s->face_list[i]]) s->face_list[n++] = s->face_list[i];
+    s->face_list_count = n;
+    return 0;
+}
+
 /* (Re)builds the level's face grid. Returns 0, or -1 when memory runs out. */
 static int grid_rebuild(sim *s)
 {
-    const long alive = grid_fill(s, &s->grid, NULL, s->nf, 0, s->nf);
+    if (live_faces(s)) return -1;
+    const long alive = grid_fill(s, &s->grid, s->face_list, s->face_list_count, 0, s->nf);
     if (alive < 0) return -1;
     s->grid_built_with = s->faces_alive = (uint32_t)alive;
     s->grid_current = 1;
@@ -2955,6 +2979,7 @@ static void sim_free(sim *s)
     free(s->cost);
     free(s->cost_clock);
     free(s->cost_faces);
+    free(s->face_list);
     free(s->vertex_stamp);
     free(s->quadrics);
     facegrid_free(&s->grid);
@@ -3115,17 +3140,20 @@ static int bound_order(const void *x, const void *y)
  * takes the overlay's when that is smaller (both are proofs), until the next
  * face's recorded bound is no larger than the largest bound so far, which
  * starts at `floor` (what the originals' side of the certificate needs), or
- * TIGHTEN_MAX_FACES have been tried. The level's bound can only fall. Serial,
- * so deterministic. Returns 0, or -1 when memory runs out. */
+ * TIGHTEN_MAX_FACES have been tried. The level's bound can only fall.
+ * Serial, so deterministic. face_list must hold just the alive faces
+ * (live_faces). Returns 0, or -1 when memory runs out. */
 static int tighten_bounds(sim *s, double floor)
 {
     size_t n = 0;
-    for (uint32_t f = 0; f < s->nf; ++f) n += s->face_alive[f] && s->face_bound[f] > floor;
+    for (uint32_t i = 0; i < s->face_list_count; ++i) n += s->face_bound[s->face_list[i]] > floor;
     bounded_face *top = malloc((n + 1) * sizeof *top);
     if (!top) return -1;
     n = 0;
-    for (uint32_t f = 0; f < s->nf; ++f)
-        if (s->face_alive[f] && s->face_bound[f] > floor) top[n++] = (bounded_face){s->face_bound[f], f};
+    for (uint32_t i = 0; i < s->face_list_count; ++i) {
+        const uint32_t f = s->face_list[i];
+        if (s->face_bound[f] > floor) top[n++] = (bounded_face){s->face_bound[f], f};
+    }
     qsort(top, n, sizeof *top, bound_order);
     double level = floor;
     for (size_t i = 0; i < n && i < TIGHTEN_MAX_FACES && top[i].bound > level; ++i) {
@@ -3149,6 +3177,7 @@ static int tighten_bounds(sim *s, double floor)
 
 static int snapshot_level(sim *s, simplify_level *level)
 {
+    if (live_faces(s)) return -1;
     double bound = 0.0;
     /* the bounds of the certificates in force: an original's own, or its
      * cluster's when that is registered whole */
@@ -3161,12 +3190,9 @@ static int snapshot_level(sim *s, simplify_level *level)
         if (s->unit_bound[s->nf + c] > bound) bound = s->unit_bound[s->nf + c];
     }
     if (tighten_bounds(s, bound)) return -1;
-    uint32_t alive = 0;
-    for (uint32_t f = 0; f < s->nf; ++f)
-        if (s->face_alive[f]) {
-            alive++;
-            if (s->face_bound[f] > bound) bound = s->face_bound[f];
-        }
+    const uint32_t alive = s->face_list_count;
+    for (uint32_t i = 0; i < alive; ++i)
+        if (s->face_bound[s->face_list[i]] > bound) bound = s->face_bound[s->face_list[i]];
     /* the dangling triangles (weld.h) follow the faces as they are: covered
      * by themselves, they add nothing to the bound */
     const weld_result *w = s->w;
@@ -3181,8 +3207,8 @@ static int snapshot_level(sim *s, simplify_level *level)
         memcpy(level->positions, s->moved_positions, 3 * (size_t)s->nv * sizeof *level->positions);
     }
     uint32_t n = 0;
-    for (uint32_t f = 0; f < s->nf; ++f) {
-        if (!s->face_alive[f]) continue;
+    for (uint32_t i = 0; i < alive; ++i) {
+        const uint32_t f = s->face_list[i];
         memcpy(level->wedges + 3 * (size_t)n, s->corner_wedge + 3 * (size_t)f, 3 * sizeof *level->wedges);
         level->primitive[n++] = w->triangle_primitive[f];
     }
