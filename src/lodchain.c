@@ -46,18 +46,6 @@ uint32_t lodchain_kept_levels(const weld_result *w, const simplify_result *r, do
 
 /* ---- vertex order ------------------------------------------------------------ */
 
-typedef struct order_key {
-    uint8_t death;
-    uint32_t index;
-} order_key;
-
-static int compare_order(const void *a, const void *b)
-{
-    const order_key *x = a, *y = b;
-    if (x->death != y->death) return x->death > y->death ? -1 : 1; /* last to die first */
-    return x->index < y->index ? -1 : x->index > y->index;
-}
-
 /* Per wedge of the mesh, the first level that no longer uses it: LOD0 =
  * level 0 uses every wedge, so 1 at least. Taken from the levels' faces,
  * wedge by wedge (a glTF vertex is one wedge): a position vertex can outlive
@@ -79,20 +67,26 @@ static uint8_t *wedge_deaths(const weld_result *w, const simplify_result *r)
 }
 
 /* new_of_old for primitive p's vertex_count glTF vertices, last to die
- * first (wedge_deaths); vertices no triangle uses die "at level 0" and go
- * last. */
+ * first (wedge_deaths), in index order among equal deaths; vertices no
+ * triangle uses die "at level 0" and go last. A stable counting sort: a
+ * death is one byte, and a vertex keeps its place among its equals. */
 static int vertex_order(const weld_result *w, const uint8_t *wedge_death, uint32_t p, uint32_t vertex_count,
                         uint32_t *new_of_old)
 {
-    order_key *keys = calloc((size_t)vertex_count + 1, sizeof *keys);
-    if (!keys) return -1;
-    for (uint32_t i = 0; i < vertex_count; ++i) keys[i].index = i;
+    uint8_t *death = calloc((size_t)vertex_count + 1, 1);
+    if (!death) return -1;
     for (uint32_t x = 0; x < w->wedge_count; ++x)
-        if (w->wedge_primitive[x] == p && w->wedge_index[x] < vertex_count)
-            keys[w->wedge_index[x]].death = wedge_death[x];
-    qsort(keys, vertex_count, sizeof *keys, compare_order);
-    for (uint32_t i = 0; i < vertex_count; ++i) new_of_old[keys[i].index] = i;
-    free(keys);
+        if (w->wedge_primitive[x] == p && w->wedge_index[x] < vertex_count) death[w->wedge_index[x]] = wedge_death[x];
+    uint32_t start[UINT8_MAX + 1] = {0}; /* first new index of each death value */
+    for (uint32_t i = 0; i < vertex_count; ++i) start[death[i]]++;
+    uint32_t next = 0;
+    for (int d = UINT8_MAX; d >= 0; --d) {
+        const uint32_t count = start[d];
+        start[d] = next;
+        next += count;
+    }
+    for (uint32_t i = 0; i < vertex_count; ++i) new_of_old[i] = start[death[i]]++;
+    free(death);
     return 0;
 }
 
