@@ -222,7 +222,7 @@ static uint32_t split_by_sah(build_ref *refs, uint32_t count, int axis,
     suffix_count[SAH_BIN_COUNT - 1] = bin_count[SAH_BIN_COUNT - 1];
     for (int b = SAH_BIN_COUNT - 2; b > 0; b--) {
         suffix[b] = suffix[b + 1];
-        bounds_add_bounds(&suffix[b], &bin[b]);
+        if (bin_count[b]) bounds_add_bounds(&suffix[b], &bin[b]); /* an empty bin's union changes nothing */
         suffix_count[b] = suffix_count[b + 1] + bin_count[b];
     }
 
@@ -233,6 +233,10 @@ static uint32_t split_by_sah(build_ref *refs, uint32_t count, int axis,
     bounds_reset(&best_prefix);
     uint32_t prefix_count = 0;
     for (int b = 1; b < SAH_BIN_COUNT; b++) {
+        /* past an empty bin both sides are those of the boundary before,
+         * whose equal cost the strict test below would keep: most bins of
+         * the many small nodes are empty */
+        if (bin_count[b - 1] == 0) continue;
         bounds_add_bounds(&prefix, &bin[b - 1]);
         prefix_count += bin_count[b - 1];
         if (prefix_count < LEAF_MIN_TRIANGLES || suffix_count[b] < LEAF_MIN_TRIANGLES) continue;
