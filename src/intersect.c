@@ -184,22 +184,21 @@ static int same_point(const double *x, const double *y)
     return x[0] == y[0] && x[1] == y[1] && x[2] == y[2];
 }
 
-/* Index of the corner of t at position x, or -1. */
-static int find_corner(const double t[3][3], const double *x)
+/* Bit j set when x is at t's corner j (most points differ in x, tested
+ * first). */
+static unsigned corner_matches(const double *x, const double t[3][3])
 {
-    for (int i = 0; i < 3; i++)
-        if (same_point(t[i], x)) return i;
-    return -1;
+    return (unsigned)same_point(x, t[0]) | (unsigned)same_point(x, t[1]) << 1 | (unsigned)same_point(x, t[2]) << 2;
 }
 
-/* 1 when every corner of t not marked shared is certainly strictly on one
- * and the same side of the plane of `plane`: t then meets that plane only in
- * the hull of its shared corners. */
-static int off_plane_except_shared(const double t[3][3], const int *shared, const double plane[3][3])
+/* 1 when every corner of t not marked in the bit set `shared` is certainly
+ * strictly on one and the same side of the plane of `plane`: t then meets
+ * that plane only in the hull of its shared corners. */
+static int off_plane_except_shared(const double t[3][3], unsigned shared, const double plane[3][3])
 {
     int side = 0;
     for (int i = 0; i < 3; i++) {
-        if (shared[i]) continue;
+        if (shared >> i & 1u) continue;
         int s = orient3d(plane[0], plane[1], plane[2], t[i]);
         if (s == 0 || (side != 0 && s != side)) return 0;
         side = s;
@@ -207,17 +206,19 @@ static int off_plane_except_shared(const double t[3][3], const int *shared, cons
     return side != 0;
 }
 
-/* Edge tests of the six edges, see the top of the file: 1 as soon as one
- * edge of x may meet y outside the hull of the shared corners. */
-static int edges_may_meet(const double x[3][3], const int *x_shared, const double y[3][3])
+/* Edge tests of the three edges of x, see the top of the file: 1 as soon as
+ * one may meet y outside the hull of the shared corners. x_shared: bit i when
+ * x[i] is a corner of y, which is then y[corner[i]] (the first such corner). */
+static int edges_may_meet(const double x[3][3], unsigned x_shared, const int corner[3], const double y[3][3])
 {
     for (int e = 0; e < 3; e++) {
         int i = e, j = (e + 1) % 3;
-        if (x_shared[i] && x_shared[j]) continue;
-        if (x_shared[i]) {
-            if (edge_leaves_corner(x[i], x[j], y, find_corner(y, x[i]))) return 1;
-        } else if (x_shared[j]) {
-            if (edge_leaves_corner(x[j], x[i], y, find_corner(y, x[j]))) return 1;
+        int si = x_shared >> i & 1u, sj = x_shared >> j & 1u;
+        if (si && sj) continue;
+        if (si) {
+            if (edge_leaves_corner(x[i], x[j], y, corner[i])) return 1;
+        } else if (sj) {
+            if (edge_leaves_corner(x[j], x[i], y, corner[j])) return 1;
         } else if (segment_meets_triangle(x[i], x[j], y)) {
             return 1;
         }
@@ -225,11 +226,39 @@ static int edges_may_meet(const double x[3][3], const int *x_shared, const doubl
     return 0;
 }
 
+int intersect_triangles_near(const double a[3][3], const double b[3][3])
+{
+    /* the common corners (positions compared with ==): bit 3 i + j when
+     * a[i] == b[j]; most pairs differ in x, which is tested first */
+    const unsigned same = corner_matches(a[0], b) | corner_matches(a[1], b) << 3 | corner_matches(a[2], b) << 6;
+    if (!same) {
+        if (off_plane_except_shared(b, 0, a) || off_plane_except_shared(a, 0, b)) return 0;
+        const int none[3] = {-1, -1, -1};
+        return edges_may_meet(a, 0, none, b) || edges_may_meet(b, 0, none, a);
+    }
+    /* a[i] is shared when row i of `same` is not empty, b[j] when column j */
+    const unsigned a_shared = (same & 7u ? 1u : 0u) | (same & 070u ? 2u : 0u) | (same & 0700u ? 4u : 0u);
+    const unsigned b_shared = (same & 0111u ? 1u : 0u) | (same & 0222u ? 2u : 0u) | (same & 0444u ? 4u : 0u);
+    /* a triangle all of whose corners are shared lies in their hull */
+    if (a_shared == 7u || b_shared == 7u) return 0;
+
+    if (off_plane_except_shared(b, b_shared, a)) return 0;
+    if (off_plane_except_shared(a, a_shared, b)) return 0;
+
+    /* the corner each shared corner is of the other triangle: the first
+     * match, as a scan of its corners finds it */
+    int a_corner[3] = {-1, -1, -1}, b_corner[3] = {-1, -1, -1};
+    for (int i = 2; i >= 0; i--)
+        for (int j = 2; j >= 0; j--)
+            if (same >> (3 * i + j) & 1u) a_corner[i] = j, b_corner[j] = i;
+    if (edges_may_meet(a, a_shared, a_corner, b)) return 1;
+    if (edges_may_meet(b, b_shared, b_corner, a)) return 1;
+    return 0;
+}
+
 int intersect_triangles(const double a[3][3], const double b[3][3])
 {
-    for (int i = 0; i < 3; i++)
-        for (int c = 0; c < 3; c++)
-            if (!isfinite(a[i][c]) || !isfinite(b[i][c])) return 1;
+    if (!intersect_finite(a) || !intersect_finite(b)) return 1;
 
     for (int c = 0; c < 3; c++) {
         double alo = geom_fmin(a[0][c], geom_fmin(a[1][c], a[2][c]));
@@ -238,21 +267,5 @@ int intersect_triangles(const double a[3][3], const double b[3][3])
         double bhi = geom_fmax(b[0][c], geom_fmax(b[1][c], b[2][c]));
         if (ahi < blo || bhi < alo) return 0;
     }
-
-    int a_shared[3], b_shared[3], a_count = 0, b_count = 0;
-    for (int i = 0; i < 3; i++) {
-        a_shared[i] = find_corner(b, a[i]) >= 0;
-        b_shared[i] = find_corner(a, b[i]) >= 0;
-        a_count += a_shared[i];
-        b_count += b_shared[i];
-    }
-    /* a triangle all of whose corners are shared lies in their hull */
-    if (a_count == 3 || b_count == 3) return 0;
-
-    if (off_plane_except_shared(b, b_shared, a)) return 0;
-    if (off_plane_except_shared(a, a_shared, b)) return 0;
-
-    if (edges_may_meet(a, a_shared, b)) return 1;
-    if (edges_may_meet(b, b_shared, a)) return 1;
-    return 0;
+    return intersect_triangles_near(a, b);
 }

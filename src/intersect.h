@@ -39,10 +39,11 @@
  * For well-shaped triangles whose coordinates' orientation determinants are
  * exactly representable (e.g. small integers) the answer is exact.
  *
- * Cost: a box test and at most four signed volumes for the common cases
- * (disjoint, or neighbours that are not coplanar); coplanar neighbours in a
- * flat region are separated with 2D orientations in a coordinate projection,
- * which is exact on the input (it only drops a coordinate).
+ * Cost: a finiteness and a box test and at most four signed volumes for the
+ * common cases (disjoint, or neighbours that are not coplanar); coplanar
+ * neighbours in a flat region are separated with 2D orientations in a
+ * coordinate projection, which is exact on the input (it only drops a
+ * coordinate).
  *
  * Pure, no allocation, thread-safe. */
 #ifndef LODPIPE_INTERSECT_H
@@ -51,5 +52,20 @@
 /* 1 when closed triangles a and b (may) share a point outside the hull of
  * their common corners, 0 when they certainly do not (see above). */
 int intersect_triangles(const double a[3][3], const double b[3][3]);
+
+/* 1 when every coordinate of t is finite: x - x is 0 for a finite x and NaN
+ * for an infinite or NaN one, and a NaN survives the sum. */
+static inline int intersect_finite(const double t[3][3])
+{
+    double z = 0.0;
+    for (int i = 0; i < 3; i++) z += (t[i][0] - t[i][0]) + (t[i][1] - t[i][1]) + (t[i][2] - t[i][2]);
+    return z == 0.0;
+}
+
+/* intersect_triangles(a, b) for a caller that has already found both
+ * triangles finite (intersect_finite) and their closed bounding boxes
+ * overlapping: the same answer, without repeating those two tests (when a
+ * triangle is tested against many, they are most of the cost). */
+int intersect_triangles_near(const double a[3][3], const double b[3][3]);
 
 #endif

@@ -674,7 +674,17 @@ typedef struct crossing_query {
     const uint32_t *skip;
     size_t skip_count;
     double lo[3], hi[3]; /* the box of the new faces */
+    int finite;          /* every new face is (stars_finite) */
 } crossing_query;
+
+/* 1 when every corner of faces[0 .. n) is finite: then a pair whose boxes
+ * meet can skip intersect_triangles' own finiteness and box tests. */
+static int stars_finite(const cert_tri *faces, size_t n)
+{
+    for (size_t i = 0; i < n; ++i)
+        if (!intersect_finite((const double(*)[3])faces[i].p)) return 0;
+    return 1;
+}
 
 static int crosses(void *context, uint32_t g)
 {
@@ -690,16 +700,30 @@ static int crosses(void *context, uint32_t g)
         if (g == q->skip[i]) return 0;
     double other[3][3], lo[3], hi[3];
     for (int k = 0; k < 3; ++k) vertex_position(s, s->corner_vertex[3 * g + k], other[k]);
-    geom_triangle_box((const double(*)[3])other, lo, hi);
+    const int finite = intersect_finite((const double(*)[3])other);
+    if (finite) /* plain comparisons: no NaN to skip */
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = other[0][a] < other[1][a] ? other[0][a] : other[1][a];
+            lo[a] = lo[a] < other[2][a] ? lo[a] : other[2][a];
+            hi[a] = other[0][a] > other[1][a] ? other[0][a] : other[1][a];
+            hi[a] = hi[a] > other[2][a] ? hi[a] : other[2][a];
+        }
+    else
+        geom_triangle_box((const double(*)[3])other, lo, hi);
     /* | rather than ||: one predictable branch (most grid neighbours are apart) */
     if ((lo[0] > q->hi[0]) | (hi[0] < q->lo[0]) | (lo[1] > q->hi[1]) | (hi[1] < q->lo[1]) | (lo[2] > q->hi[2]) |
         (hi[2] < q->lo[2]))
         return 0;
+    const int near = q->finite && finite; /* then a pair whose boxes meet is near (intersect.h) */
     for (size_t i = 0; i < q->count; ++i) {
         const cert_tri *f = &q->faces[i];
         int apart = 0; /* boxes first: most grid neighbours are not close */
-        for (int a = 0; a < 3; ++a) apart |= lo[a] > f->hi[a] || hi[a] < f->lo[a];
-        if (!apart && intersect_triangles((const double(*)[3])f->p, (const double(*)[3])other)) return 1;
+        for (int a = 0; a < 3; ++a) apart |= (lo[a] > f->hi[a]) | (hi[a] < f->lo[a]);
+        if (apart) continue;
+        const double(*p)[3] = (const double(*)[3])f->p;
+        if (near ? intersect_triangles_near(p, (const double(*)[3])other)
+                 : intersect_triangles(p, (const double(*)[3])other))
+            return 1;
     }
     return 0;
 }
@@ -767,7 +791,8 @@ static int crosses_batch(const sim *s, scratch *sc, const collapse *cl)
     long n = new_star(s, sc, cl, lo, hi);
     if (n < 0) return sc->oom = 1, 1;
     if (n == 0) return 0;
-    crossing_query q = {s, sc, sc->tris, (size_t)n, cl, NULL, 0, {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}};
+    crossing_query q = {s, sc, sc->tris, (size_t)n, cl, NULL, 0, {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]},
+                        stars_finite(sc->tris, (size_t)n)};
     return crosses_stars(&s->batch_stars, &q, lo, hi);
 }
 
@@ -784,12 +809,18 @@ static int star_crosses(const sim *s, scratch *sc, const collapse *cl)
     const size_t n = sc->changed.size;
     double lo[3], hi[3];
     union_box(sc->after, n, lo, hi);
+    const int finite = stars_finite(sc->after, n);
     for (size_t i = 0; i < n; ++i)
-        for (size_t j = i + 1; j < n; ++j)
-            if (intersect_triangles((const double(*)[3])sc->after[i].p, (const double(*)[3])sc->after[j].p)) return 1;
+        for (size_t j = i + 1; j < n; ++j) {
+            const cert_tri *f = &sc->after[i], *g = &sc->after[j];
+            int apart = 0;
+            for (int a = 0; a < 3; ++a) apart |= g->lo[a] > f->hi[a] || g->hi[a] < f->lo[a];
+            const double(*fp)[3] = (const double(*)[3])f->p, (*gp)[3] = (const double(*)[3])g->p;
+            if (finite ? !apart && intersect_triangles_near(fp, gp) : intersect_triangles(fp, gp)) return 1;
+        }
     if (!n) return 0;
     crossing_query q = {s, sc, sc->after, n, cl, cl ? NULL : sc->changed.data, cl ? 0 : n,
-                        {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}};
+                        {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}, finite};
     if (!sc->region) return facegrid_query(&s->grid, lo, hi, crosses, &q);
     /* in a region: its own faces and the shared ones (another region's
      * faces cannot cross these, region_partition) */

@@ -683,6 +683,49 @@ static void test_flat_tilted_grid_is_clean(void)
     CHECK(reported == 0, "%d of %d pairs of a flat grid reported", reported, count * (count - 1) / 2);
 }
 
+/* ---- the entry points for callers that tested boxes themselves ------------ */
+
+/* intersect_triangles_near gives intersect_triangles' answer on finite
+ * triangles whose boxes overlap: small-integer corners (many shared, coplanar
+ * and degenerate pairs) and the same nudged by a few ulps. intersect_finite
+ * finds every infinite and NaN coordinate. */
+static void test_near_and_finite_agree(void)
+{
+    long compared = 0;
+    for (int it = 0; it < 200000; it++) {
+        tri a, b;
+        for (int i = 0; i < 3; i++)
+            for (int c = 0; c < 3; c++) {
+                a[i][c] = rng_below(3);
+                b[i][c] = rng_below(3);
+            }
+        for (int k = rng_below(4); k > 0; k--) memcpy(b[rng_below(3)], a[rng_below(3)], sizeof b[0]);
+        if (it % 2) b[rng_below(3)][rng_below(3)] += (rng_below(5) - 2) * 1e-16;
+        CHECK(intersect_finite(a) && intersect_finite(b), "finite corners");
+        int overlap = 1;
+        for (int c = 0; c < 3; c++) {
+            double alo = fmin(a[0][c], fmin(a[1][c], a[2][c])), ahi = fmax(a[0][c], fmax(a[1][c], a[2][c]));
+            double blo = fmin(b[0][c], fmin(b[1][c], b[2][c])), bhi = fmax(b[0][c], fmax(b[1][c], b[2][c]));
+            overlap &= !(ahi < blo || bhi < alo);
+        }
+        if (!overlap) continue;
+        compared++;
+        int full = intersect_triangles(a, b), near = intersect_triangles_near(a, b);
+        CHECK(full == near, "near %d vs %d (pair %d)", near, full, it);
+        if (full != near) return;
+    }
+    CHECK(compared > 100000, "only %ld pairs compared", compared);
+
+    const double bad[3] = {INFINITY, -INFINITY, NAN};
+    for (int k = 0; k < 3; k++)
+        for (int i = 0; i < 9; i++) {
+            tri t;
+            set_tri(t, 0, 0, 0, 1, 0, 0, 0, 1, 0);
+            t[i / 3][i % 3] = bad[k];
+            CHECK(!intersect_finite(t), "coordinate %d = %g found", i, bad[k]);
+        }
+}
+
 int main(void)
 {
     RUN(test_crossing_and_separated);
@@ -695,5 +738,6 @@ int main(void)
     RUN(test_exact_touching_with_rounding);
     RUN(test_integer_grid_against_lattice_reference);
     RUN(test_random_doubles_against_long_double_reference);
+    RUN(test_near_and_finite_agree);
     return check_summary();
 }
