@@ -15,6 +15,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "geom.h"
+
 #define BIG_CELL 0u
 /* Cell coordinates of inserted faces stay within +-2^52 (where doubles are
  * still integers exactly); query ranges are clamped to +-2^62. */
@@ -253,7 +255,7 @@ static int insert_range(const facegrid *g, const double lo[3], const double hi[3
     double total = 1;
     for (int k = 0; k < 3; k++) {
         if (!isfinite(lo[k]) || !isfinite(hi[k]) || !(lo[k] <= hi[k])) return 0;
-        double a = floor(lo[k] * g->inverse_cell_size), b = floor(hi[k] * g->inverse_cell_size);
+        double a = geom_floor(lo[k] * g->inverse_cell_size), b = geom_floor(hi[k] * g->inverse_cell_size);
         if (!(fabs(a) <= CELL_LIMIT) || !(fabs(b) <= CELL_LIMIT)) return 0;
         c0[k] = (int64_t)a;
         c1[k] = (int64_t)b;
@@ -310,7 +312,7 @@ facegrid_result facegrid_insert(facegrid *g, uint32_t face, const double lo[3], 
  * range loops never overflow. */
 static int64_t query_coordinate(const facegrid *g, double x)
 {
-    double c = floor(x * g->inverse_cell_size);
+    double c = geom_floor(x * g->inverse_cell_size);
     if (c < -QUERY_LIMIT) c = -QUERY_LIMIT;
     if (c > QUERY_LIMIT) c = QUERY_LIMIT;
     return (int64_t)c;

@@ -98,8 +98,8 @@ static int cube_range(const thin_map *m, const vec3d p[3], int64_t lo[3], int64_
     const double c[3][3] = {{p[0].x, p[0].y, p[0].z}, {p[1].x, p[1].y, p[1].z}, {p[2].x, p[2].y, p[2].z}};
     double cubes = 1.0;
     for (int a = 0; a < 3; ++a) {
-        double l = floor(geom_fmin(c[0][a], geom_fmin(c[1][a], c[2][a])) * m->inv_cell);
-        double h = floor(geom_fmax(c[0][a], geom_fmax(c[1][a], c[2][a])) * m->inv_cell);
+        double l = geom_floor(geom_fmin(c[0][a], geom_fmin(c[1][a], c[2][a])) * m->inv_cell);
+        double h = geom_floor(geom_fmax(c[0][a], geom_fmax(c[1][a], c[2][a])) * m->inv_cell);
         if (!(l >= -4e15 && h <= 4e15)) return 0;
         lo[a] = (int64_t)l;
         hi[a] = (int64_t)h;
@@ -134,7 +134,11 @@ int thin_map_build(thin_map *m, double radius, const float *positions, uint32_t 
             if (a != b) parent[b] = a;
         }
     }
-    /* pass 1: cubes, normal sums, mixing */
+    /* pass 1: cubes, normal sums, mixing. Neighbouring triangles mostly
+     * come one after another and lie in the same cube: the last cube found
+     * is tried before the hash. */
+    int64_t last_key[3] = {0, 0, 0};
+    uint32_t last = UINT32_MAX;
     for (uint32_t t = 0; t < triangle_count && !m->all_thin; ++t) {
         const uint32_t *tv = triangles + 3 * (size_t)t;
         vec3d p[3], n;
@@ -153,8 +157,13 @@ int thin_map_build(thin_map *m, double radius, const float *positions, uint32_t 
         for (k[0] = lo[0]; k[0] <= hi[0]; ++k[0])
             for (k[1] = lo[1]; k[1] <= hi[1]; ++k[1])
                 for (k[2] = lo[2]; k[2] <= hi[2]; ++k[2]) {
-                    uint32_t c = find_or_add(m, k, material[t], component);
-                    if (c == UINT32_MAX) goto oom;
+                    uint32_t c = last;
+                    if (c == UINT32_MAX || k[0] != last_key[0] || k[1] != last_key[1] || k[2] != last_key[2]) {
+                        c = find_or_add(m, k, material[t], component);
+                        if (c == UINT32_MAX) goto oom;
+                        memcpy(last_key, k, sizeof last_key);
+                        last = c;
+                    }
                     thin_cube *q = &m->cubes[c];
                     if (q->material != material[t] || q->component != component) q->flags |= CUBE_MIXED;
                     if (odd) q->flags |= CUBE_SPECIAL;
@@ -216,7 +225,7 @@ int thin_map_box(const thin_map *m, const double lo[3], const double hi[3])
     int64_t a[3], b[3];
     double cubes = 1.0;
     for (int k = 0; k < 3; ++k) {
-        double l = floor(lo[k] * m->inv_cell) - 1.0, h = floor(hi[k] * m->inv_cell) + 1.0;
+        double l = geom_floor(lo[k] * m->inv_cell) - 1.0, h = geom_floor(hi[k] * m->inv_cell) + 1.0;
         if (!(l >= -4e15 && h <= 4e15 && l <= h)) return 1;
         a[k] = (int64_t)l;
         b[k] = (int64_t)h;
