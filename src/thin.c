@@ -13,7 +13,9 @@
  * narrower than the cube ~0, one noisy sheet stays close to 1 */
 #define THIN_MIN_COHERENCE 0.5
 
-enum { CUBE_MIXED = 1, CUBE_SPECIAL = 2, CUBE_THIN = 4 };
+/* CUBE_NEAR_THIN: the cube or one of its 26 neighbours is thin (such a cube
+ * may hold no triangle: it is then only this flag) */
+enum { CUBE_MIXED = 1, CUBE_SPECIAL = 2, CUBE_THIN = 4, CUBE_NEAR_THIN = 8 };
 
 struct thin_cube {
     int64_t key[3];
@@ -205,6 +207,24 @@ int thin_map_build(thin_map *m, double radius, const float *positions, uint32_t 
         thin |= !(len >= THIN_MIN_COHERENCE * area && area > 0.0);
         if (thin) q->flags |= CUBE_THIN;
     }
+    /* the thin cubes grown by one cube: a query then looks up the cubes its
+     * box overlaps instead of that box grown by one (27 for a small box) */
+    const uint32_t occupied = m->count;
+    for (uint32_t c = 0; c < occupied; ++c) {
+        if (!(m->cubes[c].flags & CUBE_THIN)) continue;
+        int64_t key[3], k[3];
+        memcpy(key, m->cubes[c].key, sizeof key); /* find_or_add may move the cubes */
+        for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dz = -1; dz <= 1; ++dz) {
+                    k[0] = key[0] + dx;
+                    k[1] = key[1] + dy;
+                    k[2] = key[2] + dz;
+                    uint32_t o = find_or_add(m, k, 0, 0);
+                    if (o == UINT32_MAX) goto oom;
+                    m->cubes[o].flags |= CUBE_NEAR_THIN;
+                }
+    }
     return 0;
 oom:
     free(parent);
@@ -232,12 +252,14 @@ int thin_map_box(const thin_map *m, const double lo[3], const double hi[3])
         cubes *= h - l + 1.0;
     }
     if (cubes > THIN_MAX_QUERY_CUBES) return 1;
+    /* a thin cube in the grown range is one next to a cube of the box's own
+     * range [a + 1, b - 1]: one that is near thin */
     int64_t k[3];
-    for (k[0] = a[0]; k[0] <= b[0]; ++k[0])
-        for (k[1] = a[1]; k[1] <= b[1]; ++k[1])
-            for (k[2] = a[2]; k[2] <= b[2]; ++k[2]) {
+    for (k[0] = a[0] + 1; k[0] < b[0]; ++k[0])
+        for (k[1] = a[1] + 1; k[1] < b[1]; ++k[1])
+            for (k[2] = a[2] + 1; k[2] < b[2]; ++k[2]) {
                 uint32_t c = find(m, k);
-                if (c != UINT32_MAX && (m->cubes[c].flags & CUBE_THIN)) return 1;
+                if (c != UINT32_MAX && (m->cubes[c].flags & CUBE_NEAR_THIN)) return 1;
             }
     return 0;
 }

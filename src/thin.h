@@ -18,8 +18,9 @@
  * simplifier's strict mode tests everywhere. A triangle spanning more than
  * 64 cubes makes everything thin (low-poly input: test everywhere).
  *
- * Memory: a 64-byte record per occupied cube, hashed at load <= 1/2, and a
- * 4-byte union-find entry per vertex while building. */
+ * Memory: a 64-byte record per occupied cube and per cube next to a thin
+ * one, hashed at load <= 1/2, and a 4-byte union-find entry per vertex while
+ * building. */
 #ifndef LODPIPE_THIN_H
 #define LODPIPE_THIN_H
 
