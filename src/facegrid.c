@@ -247,6 +247,14 @@ void facegrid_remove(facegrid *g, uint32_t face)
     g->face_count--;
 }
 
+/* floor(x) for |x| <= 2^52: the truncation, one less below zero when it
+ * moved x up. */
+static int64_t floor_to_int(double x)
+{
+    const int64_t t = (int64_t)x;
+    return t - ((double)t > x);
+}
+
 /* The cell range of an inserted box, or 0 when the face belongs in the big
  * list (non-finite, inverted, too far, or too many cells). */
 static int insert_range(const facegrid *g, const double lo[3], const double hi[3], int64_t c0[3],
@@ -254,12 +262,13 @@ static int insert_range(const facegrid *g, const double lo[3], const double hi[3
 {
     double total = 1;
     for (int k = 0; k < 3; k++) {
-        if (!isfinite(lo[k]) || !isfinite(hi[k]) || !(lo[k] <= hi[k])) return 0;
-        double a = geom_floor(lo[k] * g->inverse_cell_size), b = geom_floor(hi[k] * g->inverse_cell_size);
-        if (!(fabs(a) <= CELL_LIMIT) || !(fabs(b) <= CELL_LIMIT)) return 0;
-        c0[k] = (int64_t)a;
-        c1[k] = (int64_t)b;
-        total *= b - a + 1;
+        /* |floor(x)| <= 2^52 exactly when |x| <= 2^52 (an integer), which
+         * also turns away NaN and infinite bounds */
+        const double x = lo[k] * g->inverse_cell_size, y = hi[k] * g->inverse_cell_size;
+        if (!(lo[k] <= hi[k]) || !(fabs(x) <= CELL_LIMIT) || !(fabs(y) <= CELL_LIMIT)) return 0;
+        c0[k] = floor_to_int(x);
+        c1[k] = floor_to_int(y);
+        total *= (double)(c1[k] - c0[k] + 1);
     }
     if (total > FACEGRID_MAX_CELLS_PER_FACE) return 0;
     *cell_total = (uint64_t)total;
