@@ -57,7 +57,7 @@ static int certain_sign(double det, double permanent, double relative_bound)
 /* Sign of the volume of tetrahedron abcd (Shewchuk's orient3d: positive when
  * d is below the plane through a, b, c seen counter-clockwise from above), or
  * 0 when uncertain. */
-static int orient3d(const double *a, const double *b, const double *c, const double *d)
+static inline int orient3d(const double *a, const double *b, const double *c, const double *d)
 {
     double adx = a[0] - d[0], bdx = b[0] - d[0], cdx = c[0] - d[0];
     double ady = a[1] - d[1], bdy = b[1] - d[1], cdy = c[1] - d[1];
@@ -186,7 +186,7 @@ static int same_point(const double *x, const double *y)
 
 /* Bit j set when x is at t's corner j (most points differ in x, tested
  * first). */
-static unsigned corner_matches(const double *x, const double t[3][3])
+static inline unsigned corner_matches(const double *x, const double t[3][3])
 {
     return (unsigned)same_point(x, t[0]) | (unsigned)same_point(x, t[1]) << 1 | (unsigned)same_point(x, t[2]) << 2;
 }
