@@ -497,6 +497,23 @@ static void test_fmin_fmax_rules(void)
     CHECK(wrong == 0, "%d fmin/fmax results break the NaN or tie rule", wrong);
 }
 
+/* geom_floor is floor (up to the sign of a zero result) on fractions,
+ * integers, values beyond 2^52 and 2^62, infinities and NaN. */
+static void test_floor(void)
+{
+    const double x[] = {0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2.75, -2.75, 1e-300, -1e-300, 4503599627370495.5,
+                        -4503599627370495.5, 4503599627370497.0, -4503599627370497.0, 4611686018427387904.0,
+                        -4611686018427387904.0, 1e300, -1e300, INFINITY, -INFINITY};
+    for (size_t i = 0; i < sizeof x / sizeof x[0]; ++i) {
+        const double step[] = {0.0, nextafter(x[i], INFINITY) - x[i], nextafter(x[i], -INFINITY) - x[i]};
+        for (int k = 0; k < 3; ++k) {
+            const double y = x[i] + (isfinite(step[k]) ? step[k] : 0.0);
+            CHECK(geom_floor(y) == floor(y), "geom_floor(%.17g) = %.17g, floor %.17g", y, geom_floor(y), floor(y));
+        }
+    }
+    CHECK(isnan(geom_floor(NAN)), "geom_floor(NaN) is NaN");
+}
+
 int main(void)
 {
     RUN(test_fmin_fmax_rules);
@@ -512,5 +529,6 @@ int main(void)
     RUN(test_ball_degenerate);
     RUN(test_normals);
     RUN(test_round_outward);
+    RUN(test_floor);
     return check_summary();
 }
