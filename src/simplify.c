@@ -1351,11 +1351,17 @@ static void own_grid_remove(own_grid *g, uint32_t f)
     g->alive--;
 }
 
-static int own_grid_move(own_grid *g, uint32_t f, const double lo[3], const double hi[3])
+/* As the global passes' grid log does, a face whose old and new boxes lie
+ * in the same cells keeps its entries: only the crossing tests read this
+ * grid, and which faces a query reports does not change. */
+static int own_grid_move(own_grid *g, uint32_t f, const double old_lo[3], const double old_hi[3], const double lo[3],
+                         const double hi[3])
 {
     if (!g->ready) return 0;
     const uint32_t *local = keymap_find(&g->local, f);
-    return local && facegrid_insert(&g->grid, *local, lo, hi) == FACEGRID_OK ? 0 : -1;
+    if (!local) return -1;
+    if (facegrid_contains(&g->grid, *local) && facegrid_same_cells(&g->grid, old_lo, old_hi, lo, hi)) return 0;
+    return facegrid_insert(&g->grid, *local, lo, hi) == FACEGRID_OK ? 0 : -1;
 }
 
 /* Applies an accepted collapse. Returns 1 committed, 0 skipped because an
@@ -1453,7 +1459,7 @@ static int commit(sim *s, const candidate *c, const committer *cm)
                 return 0;
             }
             if (cm->rg) {
-                if (own_grid_move(cm->rg->own, f, t.lo, t.hi)) return sc->oom = 1, 0;
+                if (own_grid_move(cm->rg->own, f, old_box, old_box + 3, t.lo, t.hi)) return sc->oom = 1, 0;
                 continue;
             }
             gridlog_move(&s->grid_log, f, old_box, old_box + 3, t.lo, t.hi);
