@@ -565,6 +565,19 @@ static void face_box_after(const sim *s, uint32_t f, const collapse *cl, cert_tr
     geom_triangle_box((const double(*)[3])t->p, t->lo, t->hi);
 }
 
+/* Face f's box now: face_box_after(s, f, NULL) without the corner copies
+ * (the grid builds take every face's box, twice). */
+static void face_box(const sim *s, uint32_t f, double lo[3], double hi[3])
+{
+    const float *p[3];
+    for (int k = 0; k < 3; ++k) p[k] = s->positions + 3 * (size_t)s->corner_vertex[3 * f + k];
+    for (int k = 0; k < 3; ++k) {
+        const double a = p[0][k], b = p[1][k], c = p[2][k];
+        lo[k] = geom_fmin(a, geom_fmin(b, c));
+        hi[k] = geom_fmax(a, geom_fmax(b, c));
+    }
+}
+
 /* 1 when face f's box now is exactly [lo, hi] (the invariant checker's test
  * that a commit sees the geometry its evaluation saw). */
 static int face_box_is(const sim *s, uint32_t f, const double lo[3], const double hi[3])
@@ -1947,12 +1960,12 @@ static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n
 {
     double extent = 0.0;
     uint32_t alive = 0;
-    cert_tri t;
+    double lo[3], hi[3];
     for (size_t i = 0; i < n; ++i) {
         const uint32_t f = faces ? faces[i] : (uint32_t)i;
         if (!s->face_alive[f]) continue;
-        face_box_after(s, f, NULL, &t);
-        const double e = geom_fmax(t.hi[0] - t.lo[0], geom_fmax(t.hi[1] - t.lo[1], t.hi[2] - t.lo[2]));
+        face_box(s, f, lo, hi);
+        const double e = geom_fmax(hi[0] - lo[0], geom_fmax(hi[1] - lo[1], hi[2] - lo[2]));
         if (isfinite(e)) extent += e;
         alive++;
     }
@@ -1964,8 +1977,8 @@ static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n
     for (size_t i = 0; i < n; ++i) {
         const uint32_t f = faces ? faces[i] : (uint32_t)i;
         if (!s->face_alive[f]) continue;
-        face_box_after(s, f, NULL, &t);
-        if (facegrid_insert(g, local ? (uint32_t)i : f, t.lo, t.hi) != FACEGRID_OK) return -1;
+        face_box(s, f, lo, hi);
+        if (facegrid_insert(g, local ? (uint32_t)i : f, lo, hi) != FACEGRID_OK) return -1;
     }
     return alive;
 }
