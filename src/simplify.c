@@ -962,8 +962,15 @@ static int certify_change(const sim *s, scratch *sc, candidate *c, const collaps
         for (;;) {
             if (grow((void **)&sc->tris, &sc->tris_cap, sc->cand_faces.size + 1, sizeof *sc->tris))
                 return sc->oom = 1, 0;
-            for (; prepared < sc->cand_faces.size; ++prepared)
-                face_after(s, sc->cand_faces.data[prepared], cl, &sc->tris[prepared]);
+            /* the changed faces lead the list, in sc->changed's order, unless
+             * one was left out: flip_ok made them already */
+            for (; prepared < sc->cand_faces.size; ++prepared) {
+                const uint32_t f = sc->cand_faces.data[prepared];
+                if (cl && prepared < sc->changed.size && sc->changed.data[prepared] == f)
+                    sc->tris[prepared] = sc->after[prepared];
+                else
+                    face_after(s, f, cl, &sc->tris[prepared]);
+            }
             uint32_t before[REGISTRY_SLOTS], nbefore = unit_faces(s, t, before);
             nfirst = 0;
             for (uint32_t k = 0; k < nbefore; ++k) {
