@@ -253,26 +253,6 @@ static int witness_ok(void *context, uint32_t t)
            nt[0] * f->n[0] + nt[1] * f->n[1] + nt[2] * f->n[2] > 0.0;
 }
 
-/* 0 when p is farther than accept from tri (NaN too: never accepted), else 1
- * with *worst2 raised to its squared distance. */
-static int point_within(const vec3d *p, const vec3d tri[3], double accept, double *worst2)
-{
-    const double d2 = geom_point_triangle_distance2(p, &tri[0], &tri[1], &tri[2], NULL);
-    if (!(d2 <= accept * accept)) return 0;
-    if (d2 > *worst2) *worst2 = d2;
-    return 1;
-}
-
-/* The largest corner distance of the piece to tri, or INFINITY as soon as
- * one corner is farther than accept (the callers accept only <= accept). */
-static double max_corner_distance(const vec3d piece[3], const vec3d tri[3], double accept)
-{
-    double worst2 = 0.0;
-    for (int k = 0; k < 3; ++k)
-        if (!point_within(&piece[k], tri, accept, &worst2)) return INFINITY;
-    return sqrt(worst2);
-}
-
 /* The largest squared corner distance of the piece to tri, or INFINITY as
  * soon as one exceeds cap2 (NaN too). */
 static double corners_below(const vec3d piece[3], const vec3d tri[3], double cap2)
@@ -284,6 +264,13 @@ static double corners_below(const vec3d piece[3], const vec3d tri[3], double cap
         if (d2 > worst2) worst2 = d2;
     }
     return worst2;
+}
+
+/* The largest corner distance of the piece to tri, or INFINITY as soon as
+ * one corner is farther than accept (the callers accept only <= accept). */
+static double max_corner_distance(const vec3d piece[3], const vec3d tri[3], double accept)
+{
+    return sqrt(corners_below(piece, tri, accept * accept));
 }
 
 /* Whether triangle t has one of corner[0 .. k - 1] as a vertex: a loop over
