@@ -460,14 +460,18 @@ size_t bvh_memory_bytes(const bvh *tree)
 
 /* ---- queries -------------------------------------------------------------- */
 
+/* How far x lies outside [lo, hi] (0 inside), in double. */
+static inline double gap_outside(double x, double lo, double hi)
+{
+    return x < lo ? lo - x : x > hi ? x - hi : 0.0;
+}
+
 /* Squared distance from p to the node's box, computed in double (0 inside). */
 static double box_distance2(const bvh_node *node, const double p[3])
 {
     double d2 = 0.0;
     for (int axis = 0; axis < 3; axis++) {
-        double lo = node->lo[axis], hi = node->hi[axis], gap = 0.0;
-        if (p[axis] < lo) gap = lo - p[axis];
-        else if (p[axis] > hi) gap = p[axis] - hi;
+        const double gap = gap_outside(p[axis], node->lo[axis], node->hi[axis]);
         d2 += gap * gap;
     }
     return d2;
@@ -504,9 +508,7 @@ static double triangle_box_distance2(const bvh *tree, uint32_t triangle, const d
         float lo = a[axis] < b[axis] ? a[axis] : b[axis], hi = a[axis] < b[axis] ? b[axis] : a[axis];
         lo = c[axis] < lo ? c[axis] : lo;
         hi = c[axis] > hi ? c[axis] : hi;
-        double gap = 0.0;
-        if (p[axis] < lo) gap = lo - p[axis];
-        else if (p[axis] > hi) gap = p[axis] - hi;
+        const double gap = gap_outside(p[axis], lo, hi);
         d2 += gap * gap;
     }
     return d2;
