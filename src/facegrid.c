@@ -247,12 +247,17 @@ void facegrid_remove(facegrid *g, uint32_t face)
     g->face_count--;
 }
 
-/* floor(x) for |x| <= 2^52: the truncation, one less below zero when it
- * moved x up. */
-static int64_t floor_to_int(double x)
+/* One axis of an inserted box's cell range, or 0 when the face belongs in
+ * the big list on that axis (inverted, non-finite or too far): |floor(x)| <=
+ * 2^52 exactly when |x| <= 2^52 (an integer), which also turns away NaN and
+ * infinite bounds. */
+static inline int axis_cells(const facegrid *g, double lo, double hi, int64_t *c0, int64_t *c1)
 {
-    const int64_t t = (int64_t)x;
-    return t - ((double)t > x);
+    const double x = lo * g->inverse_cell_size, y = hi * g->inverse_cell_size;
+    if (!(lo <= hi) || !(fabs(x) <= CELL_LIMIT) || !(fabs(y) <= CELL_LIMIT)) return 0;
+    *c0 = (int64_t)geom_floor(x);
+    *c1 = (int64_t)geom_floor(y);
+    return 1;
 }
 
 /* The cell range of an inserted box, or 0 when the face belongs in the big
@@ -262,12 +267,7 @@ static int insert_range(const facegrid *g, const double lo[3], const double hi[3
 {
     double total = 1;
     for (int k = 0; k < 3; k++) {
-        /* |floor(x)| <= 2^52 exactly when |x| <= 2^52 (an integer), which
-         * also turns away NaN and infinite bounds */
-        const double x = lo[k] * g->inverse_cell_size, y = hi[k] * g->inverse_cell_size;
-        if (!(lo[k] <= hi[k]) || !(fabs(x) <= CELL_LIMIT) || !(fabs(y) <= CELL_LIMIT)) return 0;
-        c0[k] = floor_to_int(x);
-        c1[k] = floor_to_int(y);
+        if (!axis_cells(g, lo[k], hi[k], &c0[k], &c1[k])) return 0;
         total *= (double)(c1[k] - c0[k] + 1);
     }
     if (total > FACEGRID_MAX_CELLS_PER_FACE) return 0;
@@ -275,22 +275,20 @@ static int insert_range(const facegrid *g, const double lo[3], const double hi[3
     return 1;
 }
 
-/* insert_range twice, folded into one pass of floors compared in double
- * (it runs on every move of a face, most of which stay in their cells):
- * |floor(x)| <= 2^52 exactly when |x| <= 2^52, and a NaN floor compares
- * unequal, so the tests are insert_range's. */
+/* insert_range of both boxes, compared axis by axis so that most calls stop
+ * early (it runs on every move of a face, most of which stay in their
+ * cells): equal ranges have equal totals, so b's cap is a's. */
 int facegrid_same_cells(const facegrid *g, const double lo_a[3], const double hi_a[3], const double lo_b[3],
                         const double hi_b[3])
 {
     if (!g) return 0;
-    const double s = g->inverse_cell_size;
     double total = 1;
     for (int k = 0; k < 3; k++) {
-        const double a0 = geom_floor(lo_a[k] * s), a1 = geom_floor(hi_a[k] * s);
-        if (!(lo_a[k] <= hi_a[k]) || !(lo_b[k] <= hi_b[k]) || !(fabs(a0) <= CELL_LIMIT) || !(fabs(a1) <= CELL_LIMIT) ||
-            a0 != geom_floor(lo_b[k] * s) || a1 != geom_floor(hi_b[k] * s))
+        int64_t a0, a1, b0, b1;
+        if (!axis_cells(g, lo_a[k], hi_a[k], &a0, &a1) || !axis_cells(g, lo_b[k], hi_b[k], &b0, &b1) || a0 != b0 ||
+            a1 != b1)
             return 0;
-        total *= a1 - a0 + 1;
+        total *= (double)(a1 - a0 + 1);
     }
     return total <= FACEGRID_MAX_CELLS_PER_FACE;
 }
