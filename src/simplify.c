@@ -565,26 +565,22 @@ static void face_box_after(const sim *s, uint32_t f, const collapse *cl, cert_tr
     geom_triangle_box((const double(*)[3])t->p, t->lo, t->hi);
 }
 
-/* Face f's box now: face_box_after(s, f, NULL) without the corner copies
+/* Face f's box now: face_box_after(s, f, NULL) without filling a cert_tri
  * (the grid builds take every face's box, twice). */
 static void face_box(const sim *s, uint32_t f, double lo[3], double hi[3])
 {
-    const float *p[3];
-    for (int k = 0; k < 3; ++k) p[k] = s->positions + 3 * (size_t)s->corner_vertex[3 * f + k];
-    for (int k = 0; k < 3; ++k) {
-        const double a = p[0][k], b = p[1][k], c = p[2][k];
-        lo[k] = geom_fmin(a, geom_fmin(b, c));
-        hi[k] = geom_fmax(a, geom_fmax(b, c));
-    }
+    double p[3][3];
+    for (int k = 0; k < 3; ++k) vertex_position(s, s->corner_vertex[3 * f + k], p[k]);
+    geom_triangle_box((const double(*)[3])p, lo, hi);
 }
 
 /* 1 when face f's box now is exactly [lo, hi] (the invariant checker's test
  * that a commit sees the geometry its evaluation saw). */
 static int face_box_is(const sim *s, uint32_t f, const double lo[3], const double hi[3])
 {
-    cert_tri now;
-    face_box_after(s, f, NULL, &now);
-    return !memcmp(now.lo, lo, sizeof now.lo) && !memcmp(now.hi, hi, sizeof now.hi);
+    double now_lo[3], now_hi[3];
+    face_box(s, f, now_lo, now_hi);
+    return !memcmp(now_lo, lo, sizeof now_lo) && !memcmp(now_hi, hi, sizeof now_hi);
 }
 
 static int next_stamp(scratch *sc)
@@ -1707,6 +1703,23 @@ typedef struct collect_range {
     uint32_t kept, count; /* results: alive vertices, candidates */
 } collect_range;
 
+/* u's cost, how the region queues and the passes order candidates: that of
+ * its cheapest half-edge collapse, the neighbour at its end in *to
+ * (NONE when u has no edge of finite cost). */
+static double cheapest_edge(const sim *s, uint32_t u, uint32_t *to)
+{
+    double best = INFINITY;
+    uint32_t best_to = NONE;
+    for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c]) {
+        if (!s->face_alive[c / 3] || s->corner_vertex[c] != u) continue;
+        const uint32_t x = s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3];
+        const double e = half_edge_cost(s, u, x);
+        if (e < best) best = e, best_to = x;
+    }
+    *to = best_to;
+    return best;
+}
+
 /* The cost of u's cheapest edge (INFINITY: u has no face), the ordering
  * hint of collect_candidates. It reads u's faces and the quadric and place
  * of each neighbour, which change only by a commit that stamps u
@@ -1716,27 +1729,14 @@ typedef struct collect_range {
  * falls. Most vertices are unchanged from one pass to the next. */
 static double vertex_cost(sim *s, uint32_t u)
 {
-    uint32_t faces = 0;
-    const int kept = s->cost_clock[u] != NONE && s->change_stamp[u] <= s->cost_clock[u];
-    if (kept) {
-        for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c])
-            faces += s->face_alive[c / 3] && s->corner_vertex[c] == u;
-        if (faces == s->cost_faces[u]) return s->cost[u];
-        faces = 0;
-    }
-    double best = INFINITY, place[3];
-    for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c]) {
-        if (!s->face_alive[c / 3] || s->corner_vertex[c] != u) continue;
-        faces++;
-        uint32_t x = s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3];
-        int full = 0; /* the order needs no placement */
-        double e = edge_cost(s, u, x, &full, place);
-        if (e < best) best = e;
-    }
-    s->cost[u] = best;
+    const uint32_t faces = faces_around(s, u);
+    if (s->cost_clock[u] != NONE && s->change_stamp[u] <= s->cost_clock[u] && faces == s->cost_faces[u])
+        return s->cost[u];
+    uint32_t to;
+    s->cost[u] = cheapest_edge(s, u, &to);
     s->cost_clock[u] = s->commit_clock;
     s->cost_faces[u] = faces;
-    return best;
+    return s->cost[u];
 }
 
 static void *collect_range_run(void *p)
@@ -2355,22 +2355,6 @@ static queued_cost heap_pop(region_thread *t)
     return top;
 }
 
-/* u's cost: that of its cheapest edge, the neighbour at its end in *to
- * (NONE when u has no edge of finite cost). */
-static double queue_cost(const sim *s, uint32_t u, uint32_t *to)
-{
-    double best = INFINITY;
-    uint32_t best_to = NONE;
-    for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c]) {
-        if (!s->face_alive[c / 3] || s->corner_vertex[c] != u) continue;
-        const uint32_t x = s->corner_vertex[3 * (c / 3) + (c % 3 + 1) % 3];
-        const double e = half_edge_cost(s, u, x);
-        if (e < best) best = e, best_to = x;
-    }
-    *to = best_to;
-    return best;
-}
-
 /* May u be queued in its region: interior, alive, not locked? */
 static int queueable(const sim *s, uint32_t u)
 {
@@ -2383,7 +2367,7 @@ static int queueable(const sim *s, uint32_t u)
 static int region_queue(sim *s, region_thread *t, uint32_t u)
 {
     if (!queueable(s, u)) return 0;
-    const double best = queue_cost(s, u, &s->queued_to[u]);
+    const double best = cheapest_edge(s, u, &s->queued_to[u]);
     if (!(best < INFINITY)) return 0;
     return heap_push(t, (queued_cost){best, u, ++s->queued[u]});
 }
@@ -2410,7 +2394,7 @@ static int region_queue_after(sim *s, region_thread *t, uint32_t x, uint32_t v, 
     }
     if (s->verify) { /* the invariant checker's mode: the same value as region_queue's, to the bit */
         uint32_t to_full;
-        const double again = queue_cost(s, x, &to_full);
+        const double again = cheapest_edge(s, x, &to_full);
         if (memcmp(&again, &best, sizeof best) != 0) {
             snprintf(s->verify_msg, sizeof s->verify_msg,
                      "vertex %u: cost %.17g kept after the commit onto %u, %.17g computed afresh", x, best, v, again);
