@@ -186,6 +186,10 @@ typedef struct scratch {
 typedef struct own_grid {
     facegrid grid;
     u32vec faces; /* local number -> face */
+    /* local number -> its face's box now (lo, hi; set for the alive ones):
+     * crosses_local turns away most of what the grid reports with it, before
+     * crosses reads the corners */
+    f64vec box;
     keymap local; /* face -> local number */
     uint32_t alive, built;
     int ready;
@@ -741,12 +745,21 @@ static int crosses(void *context, uint32_t g)
 typedef struct local_query {
     const crossing_query *q;
     const uint32_t *faces;
+    const double *box;
 } local_query;
 
 static int crosses_local(void *context, uint32_t local)
 {
     const local_query *lq = context;
-    return crosses((void *)lq->q, lq->faces[local]);
+    const crossing_query *q = lq->q;
+    /* crosses' own first box test, on the same box (the face's, kept by
+     * own_grid_move): the grid's cells are coarse, most faces they report
+     * are apart from the star */
+    const double *b = lq->box + 6 * (size_t)local;
+    if ((b[0] > q->hi[0]) | (b[3] < q->lo[0]) | (b[1] > q->hi[1]) | (b[4] < q->lo[1]) | (b[2] > q->hi[2]) |
+        (b[5] < q->lo[2]))
+        return 0;
+    return crosses((void *)q, lq->faces[local]);
 }
 
 /* The box of faces[0 .. n) (their boxes set). */
@@ -835,7 +848,7 @@ static int star_crosses(const sim *s, scratch *sc, const collapse *cl)
      * faces cannot cross these, region_partition) */
     own_grid *own = sc->region->own;
     if (!own->ready && own_grid_init(s, sc->region, own)) return sc->oom = 1, 1;
-    local_query lq = {&q, own->faces.data};
+    local_query lq = {&q, own->faces.data, own->box.data};
     return facegrid_query(&own->grid, lo, hi, crosses_local, &lq) ||
            facegrid_query(sc->region->shared, lo, hi, crosses, &q);
 }
@@ -1376,6 +1389,8 @@ static int own_grid_move(own_grid *g, uint32_t f, const double old_lo[3], const 
     if (!g->ready) return 0;
     const uint32_t *local = keymap_find(&g->local, f);
     if (!local) return -1;
+    memcpy(g->box.data + 6 * (size_t)*local, lo, 3 * sizeof *lo);
+    memcpy(g->box.data + 6 * (size_t)*local + 3, hi, 3 * sizeof *hi);
     if (facegrid_contains(&g->grid, *local) && facegrid_same_cells(&g->grid, old_lo, old_hi, lo, hi)) return 0;
     return facegrid_insert(&g->grid, *local, lo, hi) == FACEGRID_OK ? 0 : -1;
 }
@@ -1962,8 +1977,11 @@ static int merge_clusters(sim *s)
  * before them), where 4x spans fewer cells per face: measured on a
  * 1.1M-triangle chain (when its first level still built this grid), 2x
  * throughout cost 19 bytes a triangle more at the peak, 4x throughout 1.4 s
- * more time. Returns the number of alive faces, or -1 when memory runs out. */
-static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n, int local, uint32_t capacity)
+ * more time. With boxes, the box of each alive faces[i] (lo, hi) goes to
+ * boxes + 6 i. Returns the number of alive faces, or -1 when memory runs
+ * out. */
+static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n, int local, uint32_t capacity,
+                      double *boxes)
 {
     double extent = 0.0;
     uint32_t alive = 0;
@@ -1985,6 +2003,10 @@ static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n
         const uint32_t f = faces ? faces[i] : (uint32_t)i;
         if (!s->face_alive[f]) continue;
         face_box(s, f, lo, hi);
+        if (boxes) {
+            memcpy(boxes + 6 * i, lo, sizeof lo);
+            memcpy(boxes + 6 * i + 3, hi, sizeof hi);
+        }
         if (facegrid_insert(g, local ? (uint32_t)i : f, lo, hi) != FACEGRID_OK) return -1;
     }
     return alive;
@@ -2011,7 +2033,7 @@ static int live_faces(sim *s)
 static int grid_rebuild(sim *s)
 {
     if (live_faces(s)) return -1;
-    const long alive = grid_fill(s, &s->grid, s->face_list, s->face_list_count, 0, s->nf);
+    const long alive = grid_fill(s, &s->grid, s->face_list, s->face_list_count, 0, s->nf, NULL);
     if (alive < 0) return -1;
     s->grid_built_with = s->faces_alive = (uint32_t)alive;
     s->grid_current = 1;
@@ -2293,15 +2315,19 @@ static void region_thread_free(region_thread *t)
     free(t->heap);
     facegrid_free(&t->own.grid);
     free(t->own.faces.data);
+    free(t->own.box.data);
     keymap_free(&t->own.local);
     free(t->deferred.data);
     free(t->ring.data);
 }
 
-/* (Re)builds the grid of a region's alive faces (g->faces fixed). */
+/* (Re)builds the grid of a region's alive faces and their boxes (g->faces
+ * fixed). */
 static int own_grid_build(const sim *s, own_grid *g)
 {
-    const long alive = grid_fill(s, &g->grid, g->faces.data, g->faces.size, 1, (uint32_t)g->faces.size);
+    if (grow((void **)&g->box.data, &g->box.cap, 6 * g->faces.size + 1, sizeof *g->box.data)) return -1;
+    const long alive =
+        grid_fill(s, &g->grid, g->faces.data, g->faces.size, 1, (uint32_t)g->faces.size, g->box.data);
     if (alive < 0) return -1;
     g->alive = g->built = (uint32_t)alive;
     return 0;
@@ -2550,7 +2576,7 @@ static long region_round(sim *s)
     int oom = 0;
     for (uint32_t f = 0; f < s->nf && !oom; ++f)
         if (s->face_alive[f] && s->face_owner[f] == REGION_SHARED) oom = u32_push(&shared_faces, f);
-    if (!oom) oom = grid_fill(s, &shared, shared_faces.data, shared_faces.size, 0, s->nf) < 0;
+    if (!oom) oom = grid_fill(s, &shared, shared_faces.data, shared_faces.size, 0, s->nf, NULL) < 0;
     free(shared_faces.data);
     if (oom) {
         facegrid_free(&shared);
