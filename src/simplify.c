@@ -178,11 +178,13 @@ typedef struct scratch {
 #define REGION_SHARED UINT32_MAX
 
 /* The faces a region owns, in a grid of their own for its crossing tests
- * (numbered locally: their index in faces), kept current by its commits
- * and built again with larger cells when half of them have died. Made at
- * the region's first crossing test (ready): the tests run only where the
- * original is thin, and most regions never make one (measured on the
- * 1.1M-triangle chain: 139 of 220), so their commits keep no grid. */
+ * (numbered locally: their index in faces), kept current by its commits.
+ * Made at the region's first crossing test (ready): the tests run only
+ * where the original is thin, and most regions never make one (measured on
+ * the 1.1M-triangle chain: 139 of 220), so their commits keep no grid. It
+ * is not built again with larger cells as its faces grow: with the boxes,
+ * a face the coarser cells report costs a box test, and the rebuilds cost
+ * more than they saved (ir.sh 15.160 -> 15.080 G, with 3x cells). */
 typedef struct own_grid {
     facegrid grid;
     u32vec faces; /* local number -> face */
@@ -191,7 +193,6 @@ typedef struct own_grid {
      * crosses reads the corners */
     f64vec box;
     keymap local; /* face -> local number */
-    uint32_t alive, built;
     int ready;
 } own_grid;
 
@@ -1377,7 +1378,6 @@ static void own_grid_remove(own_grid *g, uint32_t f)
     const uint32_t *local = keymap_find(&g->local, f);
     if (!local) return;
     facegrid_remove(&g->grid, *local);
-    g->alive--;
 }
 
 /* As the global passes' grid log does, a face whose old and new boxes lie
@@ -1977,7 +1977,9 @@ static int merge_clusters(sim *s)
  * before them), where 4x spans fewer cells per face: measured on a
  * 1.1M-triangle chain (when its first level still built this grid), 2x
  * throughout cost 19 bytes a triangle more at the peak, 4x throughout 1.4 s
- * more time. With boxes, the box of each alive faces[i] (lo, hi) goes to
+ * more time. And 3x in a region's own grid (local), built once while its
+ * faces grow, whose queries test the boxes before anything else (ir.sh on
+ * the 278k mesh: 1.5x 15.160, 2x 15.102, 3x 15.080, 4x 15.091 G). With boxes, the box of each alive faces[i] (lo, hi) goes to
  * boxes + 6 i. Returns the number of alive faces, or -1 when memory runs
  * out. */
 static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n, int local, uint32_t capacity,
@@ -1994,7 +1996,7 @@ static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n
         if (isfinite(e)) extent += e;
         alive++;
     }
-    const double factor = alive == s->nf ? 4.0 : 2.0;
+    const double factor = local ? 3.0 : alive == s->nf ? 4.0 : 2.0;
     double cell = alive ? factor * extent / alive : 1.0;
     if (!(cell > 0.0) || !isfinite(cell)) cell = 1.0;
     facegrid_free(g);
@@ -2321,20 +2323,9 @@ static void region_thread_free(region_thread *t)
     free(t->ring.data);
 }
 
-/* (Re)builds the grid of a region's alive faces and their boxes (g->faces
- * fixed). */
-static int own_grid_build(const sim *s, own_grid *g)
-{
-    if (grow((void **)&g->box.data, &g->box.cap, 6 * g->faces.size + 1, sizeof *g->box.data)) return -1;
-    const long alive =
-        grid_fill(s, &g->grid, g->faces.data, g->faces.size, 1, (uint32_t)g->faces.size, g->box.data);
-    if (alive < 0) return -1;
-    g->alive = g->built = (uint32_t)alive;
-    return 0;
-}
-
 /* The faces region rg owns now (each from its first corner's vertex: its
- * corners' vertices stay the region's while it runs). */
+ * corners' vertices stay the region's while it runs), their grid and
+ * boxes. */
 static int own_grid_init(const sim *s, const region *rg, own_grid *g)
 {
     g->ready = 1; /* (a failure stops the region) */
@@ -2348,7 +2339,9 @@ static int own_grid_init(const sim *s, const region *rg, own_grid *g)
             if (keymap_insert(&g->local, f, (uint32_t)g->faces.size) < 0 || u32_push(&g->faces, f)) return -1;
         }
     }
-    return own_grid_build(s, g);
+    if (grow((void **)&g->box.data, &g->box.cap, 6 * g->faces.size + 1, sizeof *g->box.data)) return -1;
+    return grid_fill(s, &g->grid, g->faces.data, g->faces.size, 1, (uint32_t)g->faces.size, g->box.data) < 0 ? -1
+                                                                                                               : 0;
 }
 
 static int heap_push(region_thread *t, queued_cost e)
@@ -2521,8 +2514,6 @@ static void region_run(sim *s, region *rg, uint32_t thread, region_thread *rt)
         }
         rg->stats.commits++;
         if (region_requeue(s, sc, rt, c.v, c.u)) goto oom;
-        /* its faces grow as they merge: cells for their size */
-        if (rt->own.ready && rt->own.alive < rt->own.built / 2 && own_grid_build(s, &rt->own)) goto oom;
     }
     sc->region = NULL;
     return;
