@@ -1992,6 +1992,10 @@ static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n
         const uint32_t f = faces ? faces[i] : (uint32_t)i;
         if (!s->face_alive[f]) continue;
         face_box(s, f, lo, hi);
+        if (boxes) {
+            memcpy(boxes + 6 * i, lo, sizeof lo);
+            memcpy(boxes + 6 * i + 3, hi, sizeof hi);
+        }
         const double e = geom_fmax(hi[0] - lo[0], geom_fmax(hi[1] - lo[1], hi[2] - lo[2]));
         if (isfinite(e)) extent += e;
         alive++;
@@ -2004,12 +2008,9 @@ static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n
     for (size_t i = 0; i < n; ++i) {
         const uint32_t f = faces ? faces[i] : (uint32_t)i;
         if (!s->face_alive[f]) continue;
-        face_box(s, f, lo, hi);
-        if (boxes) {
-            memcpy(boxes + 6 * i, lo, sizeof lo);
-            memcpy(boxes + 6 * i + 3, hi, sizeof hi);
-        }
-        if (facegrid_insert(g, local ? (uint32_t)i : f, lo, hi) != FACEGRID_OK) return -1;
+        if (!boxes) face_box(s, f, lo, hi); /* else kept by the first sweep */
+        const double *box_lo = boxes ? boxes + 6 * i : lo, *box_hi = boxes ? boxes + 6 * i + 3 : hi;
+        if (facegrid_insert(g, local ? (uint32_t)i : f, box_lo, box_hi) != FACEGRID_OK) return -1;
     }
     return alive;
 }
