@@ -700,9 +700,9 @@ static int stars_finite(const cert_tri *faces, size_t n)
     return 1;
 }
 
-static int crosses(void *context, uint32_t g)
+/* 1 when face g of a grid is one to test against the new faces. */
+static int crossing_candidate(const crossing_query *q, uint32_t g)
 {
-    const crossing_query *q = context;
     const sim *s = q->s;
     /* another region's face lies in that region's cell, apart from every
      * face this region makes (region_partition): it cannot cross them */
@@ -712,8 +712,32 @@ static int crosses(void *context, uint32_t g)
     if (q->cl && (face_has(s, g, q->cl->u) || (q->cl->moved && face_has(s, g, q->cl->v)))) return 0;
     for (size_t i = 0; i < q->skip_count; ++i)
         if (g == q->skip[i]) return 0;
+    return 1;
+}
+
+/* 1 when a new face of q whose box meets [lo, hi], the box of the triangle
+ * other (finite: intersect_finite of it), would cross it. */
+static int crosses_triangle(const crossing_query *q, const double other[3][3], int finite, const double lo[3],
+                            const double hi[3])
+{
+    const int near = q->finite && finite; /* then a pair whose boxes meet is near (intersect.h) */
+    for (size_t i = 0; i < q->count; ++i) {
+        const cert_tri *f = &q->faces[i];
+        int apart = 0; /* boxes first: most grid neighbours are not close */
+        for (int a = 0; a < 3; ++a) apart |= (lo[a] > f->hi[a]) | (hi[a] < f->lo[a]);
+        if (apart) continue;
+        const double(*p)[3] = (const double(*)[3])f->p;
+        if (near ? intersect_triangles_near(p, other) : intersect_triangles(p, other)) return 1;
+    }
+    return 0;
+}
+
+static int crosses(void *context, uint32_t g)
+{
+    const crossing_query *q = context;
+    if (!crossing_candidate(q, g)) return 0;
     double other[3][3], lo[3], hi[3];
-    for (int k = 0; k < 3; ++k) vertex_position(s, s->corner_vertex[3 * g + k], other[k]);
+    for (int k = 0; k < 3; ++k) vertex_position(q->s, q->s->corner_vertex[3 * g + k], other[k]);
     const int finite = intersect_finite((const double(*)[3])other);
     if (finite) /* plain comparisons: no NaN to skip */
         for (int a = 0; a < 3; ++a) {
@@ -728,18 +752,7 @@ static int crosses(void *context, uint32_t g)
     if ((lo[0] > q->hi[0]) | (hi[0] < q->lo[0]) | (lo[1] > q->hi[1]) | (hi[1] < q->lo[1]) | (lo[2] > q->hi[2]) |
         (hi[2] < q->lo[2]))
         return 0;
-    const int near = q->finite && finite; /* then a pair whose boxes meet is near (intersect.h) */
-    for (size_t i = 0; i < q->count; ++i) {
-        const cert_tri *f = &q->faces[i];
-        int apart = 0; /* boxes first: most grid neighbours are not close */
-        for (int a = 0; a < 3; ++a) apart |= (lo[a] > f->hi[a]) | (hi[a] < f->lo[a]);
-        if (apart) continue;
-        const double(*p)[3] = (const double(*)[3])f->p;
-        if (near ? intersect_triangles_near(p, (const double(*)[3])other)
-                 : intersect_triangles(p, (const double(*)[3])other))
-            return 1;
-    }
-    return 0;
+    return crosses_triangle(q, (const double(*)[3])other, finite, lo, hi);
 }
 
 /* crosses for a region's own grid, whose faces are numbered locally. */
@@ -753,14 +766,20 @@ static int crosses_local(void *context, uint32_t local)
 {
     const local_query *lq = context;
     const crossing_query *q = lq->q;
-    /* crosses' own first box test, on the same box (the face's, kept by
-     * own_grid_move): the grid's cells are coarse, most faces they report
+    /* crosses' tests on the same box (the face's, kept by own_grid_move),
+     * the star's first: the grid's cells are coarse, most faces they report
      * are apart from the star */
     const double *b = lq->box + 6 * (size_t)local;
     if ((b[0] > q->hi[0]) | (b[3] < q->lo[0]) | (b[1] > q->hi[1]) | (b[4] < q->lo[1]) | (b[2] > q->hi[2]) |
         (b[5] < q->lo[2]))
         return 0;
-    return crosses((void *)q, lq->faces[local]);
+    const uint32_t g = lq->faces[local];
+    if (!crossing_candidate(q, g)) return 0;
+    double other[3][3];
+    for (int k = 0; k < 3; ++k) vertex_position(q->s, q->s->corner_vertex[3 * g + k], other[k]);
+    /* the kept box is the one crosses computes (but for the sign of a zero,
+     * which no comparison sees) */
+    return crosses_triangle(q, (const double(*)[3])other, intersect_finite((const double(*)[3])other), b, b + 3);
 }
 
 /* The box of faces[0 .. n) (their boxes set). */
