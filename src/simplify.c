@@ -40,17 +40,19 @@
 #include "registry.h"
 #include "thin.h"
 #include "threads.h"
+#include "workpool.h"
 
 #define NONE UINT32_MAX
 #define GRIDLOG_RING 4096   /* grid updates in flight (about 100 bytes each) */
 #define BATCH_SIZE 512      /* fixed: the result must not depend on the thread count */
-/* Helper threads are started per batch: the evaluations only once this many
- * candidates are reserved, the grid's updates only for a batch this large.
- * Starting a thread costs about as much as evaluating ten small candidates,
- * and a small mesh's passes hold a handful each: 500 meshes of 96 triangles
- * took 24 s on two threads (16 s of it in the kernel), 5.5 s on one. Which
- * thread evaluates changes nothing in the result. */
-#define BATCH_PARALLEL_MIN 8
+/* The pool's helpers (workpool.h) are woken for a batch once this many
+ * candidates are reserved: a lone candidate cannot be shared. Which thread
+ * evaluates changes nothing in the result. The grid's updates get a helper
+ * thread of their own (gridlog.h) only for a batch this large: starting a
+ * thread costs about as much as evaluating ten small candidates (when the
+ * evaluations too started threads per batch, 500 meshes of 96 triangles took
+ * 24 s on two threads, 16 s of it in the kernel, 5.5 s on one). */
+#define BATCH_PARALLEL_MIN 2
 #define GRIDLOG_PARALLEL_MIN 64
 #define TARGETS_TRIED 3     /* cheapest legal targets tried per candidate */
 #define MAX_CANDIDATE_FACES 384
@@ -315,6 +317,7 @@ typedef struct sim {
     int verify;
     uint32_t level;
     uint32_t thread_count;
+    workpool pool; /* threads 1 .. thread_count - 1, for every parallel step */
     scratch scratch[MAX_THREADS];
     scratch serial; /* for the serial phases */
     simplify_stats *stats;
@@ -1181,18 +1184,12 @@ typedef struct batch_job {
     atomic_int closed;       /* published is final */
 } batch_job;
 
-/* What a worker thread is given: its job (a batch_job, or a region_job) and
- * its number, which picks its scratch. */
-typedef struct worker_arg {
-    void *job;
-    uint32_t thread;
-} worker_arg;
-
-static void *worker(void *p)
+/* Claims and evaluates the batch's candidates until it is closed and all are
+ * claimed; thread picks the scratch (a workpool_fn). */
+static void batch_worker(void *p, uint32_t thread)
 {
-    worker_arg *a = p;
-    batch_job *job = a->job;
-    scratch *sc = &job->s->scratch[a->thread];
+    batch_job *job = p;
+    scratch *sc = &job->s->scratch[thread];
     for (;;) {
         /* closed before published: once closed is seen, published is final */
         const int closed = atomic_load_explicit(&job->closed, memory_order_acquire);
@@ -1201,21 +1198,19 @@ static void *worker(void *p)
         if (i < ready) {
             if (atomic_compare_exchange_weak_explicit(&job->next, &i, i + 1, memory_order_relaxed,
                                                       memory_order_relaxed)) {
-                job->cands[i].thread = a->thread;
+                job->cands[i].thread = thread;
                 evaluate(job->s, sc, &job->cands[i]);
             }
             continue;
         }
-        if (closed) return NULL;
+        if (closed) return;
         sched_yield(); /* the main thread is reserving the next candidate */
     }
 }
 
 typedef struct batch_run {
     batch_job job;
-    worker_arg args[MAX_THREADS];
-    pthread_t threads[MAX_THREADS];
-    uint32_t started; /* workers 1 .. started run */
+    int helped; /* the pool's helpers were woken */
 } batch_run;
 
 static void batch_open(sim *s, batch_run *r, candidate *cands)
@@ -1225,37 +1220,31 @@ static void batch_open(sim *s, batch_run *r, candidate *cands)
     atomic_init(&r->job.next, 0);
     atomic_init(&r->job.published, 0);
     atomic_init(&r->job.closed, 0);
-    r->started = 0;
+    r->helped = 0;
     for (uint32_t t = 0; t < s->thread_count; ++t) {
         s->scratch[t].out_u32.size = 0;
         s->scratch[t].out_f64.size = 0;
     }
 }
 
-/* cands[0 .. count) are reserved; the workers start once there are
+/* cands[0 .. count) are reserved; the helpers are woken once there are
  * BATCH_PARALLEL_MIN (a smaller batch is evaluated by batch_close alone). */
 static void batch_publish(sim *s, batch_run *r, size_t count)
 {
     atomic_store_explicit(&r->job.published, count, memory_order_release);
     if (count != BATCH_PARALLEL_MIN) return;
-    for (uint32_t t = 1; t < s->thread_count; ++t) {
-        r->args[t].job = &r->job;
-        r->args[t].thread = t;
-        if (pthread_create(&r->threads[t], NULL, worker, &r->args[t]) != 0) break;
-        r->started = t;
-    }
+    workpool_start(&s->pool, batch_worker, &r->job);
+    r->helped = 1;
 }
 
 /* No more candidates: evaluates what is left on this thread too, and waits
- * for the workers. */
-static void batch_close(batch_run *r)
+ * for the helpers. */
+static void batch_close(sim *s, batch_run *r)
 {
     atomic_store_explicit(&r->job.closed, 1, memory_order_release);
-    r->args[0].job = &r->job;
-    r->args[0].thread = 0;
-    worker(&r->args[0]);
-    for (uint32_t t = 1; t <= r->started; ++t) pthread_join(r->threads[t], NULL);
-    r->started = 0;
+    batch_worker(&r->job, 0);
+    if (r->helped) workpool_finish(&s->pool);
+    r->helped = 0;
 }
 
 /* ---- commit -------------------------------------------------------------------- */
@@ -1773,9 +1762,8 @@ static double vertex_cost(sim *s, uint32_t u)
     return s->cost[u];
 }
 
-static void *collect_range_run(void *p)
+static void collect_range_run(collect_range *r)
 {
-    collect_range *r = p;
     sim *s = r->s;
     uint32_t kept = r->begin, n = r->begin;
     for (uint32_t i = r->begin; i < r->end; ++i) {
@@ -1795,7 +1783,24 @@ static void *collect_range_run(void *p)
     }
     r->kept = kept - r->begin;
     r->count = n - r->begin;
-    return NULL;
+}
+
+typedef struct collect_job {
+    collect_range ranges[MAX_THREADS];
+    uint32_t parts;
+    atomic_uint next; /* the next range to claim */
+} collect_job;
+
+/* Claims and collects ranges until none is left (a workpool_fn). */
+static void collect_worker(void *p, uint32_t thread)
+{
+    (void)thread;
+    collect_job *job = p;
+    for (;;) {
+        const uint32_t k = atomic_fetch_add_explicit(&job->next, 1, memory_order_relaxed);
+        if (k >= job->parts) return;
+        collect_range_run(&job->ranges[k]);
+    }
 }
 
 /* Every candidate of the level into out (unsorted; the count is returned,
@@ -1813,22 +1818,20 @@ static long collect_candidates(sim *s, ranked *out)
         if (!s->cost || !s->cost_clock || !s->cost_faces) return s->serial.oom = 1, -1;
         memset(s->cost_clock, 0xff, ((size_t)s->nv + 1) * sizeof *s->cost_clock);
     }
-    collect_range ranges[MAX_THREADS];
-    pthread_t threads[MAX_THREADS];
-    uint32_t parts = s->movable_count >= COLLECT_PARALLEL_MIN ? s->thread_count : 1;
+    collect_job job;
+    collect_range *ranges = job.ranges;
+    const uint32_t parts = s->movable_count >= COLLECT_PARALLEL_MIN ? s->thread_count : 1;
+    job.parts = parts;
+    atomic_init(&job.next, 0);
     for (uint32_t t = 0; t < parts; ++t) {
         ranges[t].s = s;
         ranges[t].out = out;
         ranges[t].begin = (uint32_t)((uint64_t)s->movable_count * t / parts);
         ranges[t].end = (uint32_t)((uint64_t)s->movable_count * (t + 1) / parts);
     }
-    uint32_t started = 1;
-    for (; started < parts; ++started)
-        if (pthread_create(&threads[started], NULL, collect_range_run, &ranges[started]) != 0) break;
-    /* a thread that could not be started: its ranges are collected here */
-    for (uint32_t t = 0; t < parts; ++t)
-        if (t == 0 || t >= started) collect_range_run(&ranges[t]);
-    for (uint32_t t = 1; t < started; ++t) pthread_join(threads[t], NULL);
+    if (parts > 1) workpool_start(&s->pool, collect_worker, &job);
+    collect_worker(&job, 0);
+    if (parts > 1) workpool_finish(&s->pool);
     uint32_t kept = 0;
     size_t n = 0;
     for (uint32_t t = 0; t < parts; ++t) {
@@ -2098,7 +2101,7 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
         }
         const double t2 = lp_seconds();
         st->seconds_select += t2 - t1;
-        batch_close(&run);
+        batch_close(s, &run);
         st->seconds_certify += lp_seconds() - t2;
         if (s->serial.oom) return -1;
         if (count) process_batch(s, batch, count, &commits);
@@ -2552,14 +2555,14 @@ typedef struct region_job {
     region_thread *threads;
 } region_job;
 
-static void *region_worker(void *p)
+/* Claims and runs regions until none is left (a workpool_fn). */
+static void region_worker(void *p, uint32_t thread)
 {
-    worker_arg *a = p;
-    region_job *job = a->job;
+    region_job *job = p;
     for (;;) {
         const uint32_t k = atomic_fetch_add_explicit(&job->next, 1, memory_order_relaxed);
-        if (k >= job->count) return NULL;
-        region_run(job->s, &job->regions[job->order[k]], a->thread, &job->threads[a->thread]);
+        if (k >= job->count) return;
+        region_run(job->s, &job->regions[job->order[k]], thread, &job->threads[thread]);
     }
 }
 
@@ -2612,16 +2615,9 @@ static long region_round(sim *s)
     }
     region_job job = {s, regions, order, (uint32_t)parts, 0, rt};
     atomic_init(&job.next, 0);
-    worker_arg args[MAX_THREADS];
-    pthread_t tid[MAX_THREADS];
-    uint32_t started = 1;
-    for (; started < threads; ++started) {
-        args[started] = (worker_arg){&job, started};
-        if (pthread_create(&tid[started], NULL, region_worker, &args[started]) != 0) break;
-    }
-    args[0] = (worker_arg){&job, 0};
-    region_worker(&args[0]);
-    for (uint32_t t = 1; t < started; ++t) pthread_join(tid[t], NULL);
+    if (threads > 1) workpool_start(&s->pool, region_worker, &job);
+    region_worker(&job, 0);
+    if (threads > 1) workpool_finish(&s->pool);
     long commits = 0;
     int failed = 0;
     uint32_t clock = s->commit_clock;
@@ -3037,6 +3033,7 @@ static void *add_planes(void *p)
 
 static void sim_free(sim *s)
 {
+    workpool_free(&s->pool);
     free(s->moved_positions);
     free(s->face_material);
     free(s->corner_vertex);
@@ -3144,6 +3141,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
         !s->face_bound || !s->vertex_first || !s->vertex_alive || !s->movable || !s->change_stamp ||
         !s->reject_stamp || !s->vertex_stamp || !s->quadrics)
         return -1;
+    if (workpool_init(&s->pool, s->thread_count)) return -1;
     for (uint32_t t = 0; t < s->thread_count; ++t)
         if (scratch_init(&s->scratch[t], nv)) return -1;
     if (scratch_init(&s->serial, nv)) return -1;
