@@ -8,6 +8,8 @@
 #include "certify.h"
 
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -78,8 +80,9 @@ static void describe_cluster(const cert_original *o, cert_cluster_info *c)
 }
 
 /* Clusters: the maximal BVH subtrees of at most CERT_CLUSTER_MAX triangles
- * (depth first, so the triangles of a subtree are one run of the order). */
-static int build_clusters(cert_original *o)
+ * (depth first, so the triangles of a subtree are one run of the order);
+ * their ranges and cluster_of, not yet their descriptions. */
+static int find_clusters(cert_original *o)
 {
     const bvh *tree = &o->tree;
     o->cluster_of = malloc(((size_t)o->triangle_count + 1) * sizeof *o->cluster_of);
@@ -119,7 +122,6 @@ static int build_clusters(cert_original *o)
         c->first = first[i];
         c->count = below[i];
         for (uint32_t k = 0; k < c->count; ++k) o->cluster_of[tree->triangle_order[c->first + k]] = o->cluster_count;
-        describe_cluster(o, c);
         o->cluster_count++;
     }
     free(below);
@@ -167,6 +169,74 @@ static int collect_cluster_vertices(cert_original *o, uint32_t vertex_count)
     return 0;
 }
 
+/* Clusters described per DESCRIBE_CHUNK: the tasks threads share. */
+#define DESCRIBE_CHUNK 1024u
+
+/* The cluster work after find_clusters, as tasks taken in turn from an
+ * atomic counter: task 0 collects the cluster vertices, task k > 0 describes
+ * chunk k - 1. Each task writes only its own part of the arrays, so which
+ * thread runs which changes nothing. */
+typedef struct cluster_work {
+    cert_original *o;
+    uint32_t vertex_count, tasks;
+    atomic_uint next;
+    atomic_int failed;
+} cluster_work;
+
+static void *cluster_tasks(void *p)
+{
+    cluster_work *work = p;
+    cert_original *o = work->o;
+    for (uint32_t k; (k = atomic_fetch_add(&work->next, 1u)) < work->tasks;) {
+        if (k == 0) {
+            if (collect_cluster_vertices(o, work->vertex_count)) atomic_store(&work->failed, 1);
+            continue;
+        }
+        const uint32_t first = (k - 1) * DESCRIBE_CHUNK;
+        const uint32_t end = o->cluster_count - first < DESCRIBE_CHUNK ? o->cluster_count : first + DESCRIBE_CHUNK;
+        for (uint32_t c = first; c < end; ++c) describe_cluster(o, &o->clusters[c]);
+    }
+    return NULL;
+}
+
+/* Largest number of threads describing clusters. */
+#define CLUSTER_THREADS_MAX 16u
+
+/* find_clusters, then the descriptions and the cluster vertices on up to
+ * `threads` threads. Returns 0, or -1 when memory runs out. */
+static int build_clusters(cert_original *o, uint32_t vertex_count, unsigned threads)
+{
+    if (find_clusters(o)) return -1;
+    cluster_work work = {.o = o, .vertex_count = vertex_count,
+                         .tasks = 1 + (o->cluster_count + DESCRIBE_CHUNK - 1) / DESCRIBE_CHUNK};
+    atomic_init(&work.next, 0u);
+    atomic_init(&work.failed, 0);
+    pthread_t helper[CLUSTER_THREADS_MAX];
+    unsigned started = 0;
+    const unsigned wanted = threads < CLUSTER_THREADS_MAX ? threads : CLUSTER_THREADS_MAX;
+    while (started + 1 < wanted && started + 1 < work.tasks &&
+           pthread_create(&helper[started], NULL, cluster_tasks, &work) == 0)
+        started++;
+    cluster_tasks(&work);
+    for (unsigned t = 0; t < started; ++t) pthread_join(helper[t], NULL);
+    return atomic_load(&work.failed) ? -1 : 0;
+}
+
+/* Every triangle's unit normal and whether it has none. */
+static void *compute_normals(void *p)
+{
+    cert_original *o = p;
+    for (uint32_t t = 0; t < o->triangle_count; ++t) {
+        vec3d q[3], n;
+        triangle_of(o, t, q);
+        o->degenerate[t] = !geom_triangle_unit_normal(&q[0], &q[1], &q[2], &n);
+        o->normals[3 * (size_t)t] = n.x;
+        o->normals[3 * (size_t)t + 1] = n.y;
+        o->normals[3 * (size_t)t + 2] = n.z;
+    }
+    return NULL;
+}
+
 int cert_original_init(cert_original *o, const float *positions, uint32_t vertex_count,
                        const uint32_t *triangles, uint32_t triangle_count, const int32_t *material,
                        const uint32_t *vertex_offsets, const uint32_t *vertex_triangles, unsigned threads)
@@ -178,22 +248,19 @@ int cert_original_init(cert_original *o, const float *positions, uint32_t vertex
     o->material = material;
     o->vertex_offsets = vertex_offsets;
     o->vertex_triangles = vertex_triangles;
-    o->normals = calloc((size_t)triangle_count * 3 + 1, sizeof *o->normals);
-    o->degenerate = calloc((size_t)triangle_count + 1, 1);
+    o->normals = malloc(((size_t)triangle_count * 3 + 1) * sizeof *o->normals); /* compute_normals fills them */
+    o->degenerate = malloc((size_t)triangle_count + 1);
     if (!o->normals || !o->degenerate) {
         cert_original_free(o);
         return -1;
     }
-    for (uint32_t t = 0; t < triangle_count; ++t) {
-        vec3d p[3], n;
-        triangle_of(o, t, p);
-        o->degenerate[t] = !geom_triangle_unit_normal(&p[0], &p[1], &p[2], &n);
-        o->normals[3 * (size_t)t] = n.x;
-        o->normals[3 * (size_t)t + 1] = n.y;
-        o->normals[3 * (size_t)t + 2] = n.z;
-    }
-    if (bvh_build_threads(&o->tree, positions, vertex_count, triangles, triangle_count, threads) != BVH_OK ||
-        build_clusters(o) != 0 || collect_cluster_vertices(o, vertex_count) != 0) {
+    /* the tree needs no normals: with threads, they are computed beside it */
+    pthread_t thread;
+    const int beside = threads > 1 && pthread_create(&thread, NULL, compute_normals, o) == 0;
+    if (!beside) compute_normals(o);
+    const bvh_result tree_rc = bvh_build_threads(&o->tree, positions, vertex_count, triangles, triangle_count, threads);
+    if (beside) pthread_join(thread, NULL);
+    if (tree_rc != BVH_OK || build_clusters(o, vertex_count, threads) != 0) {
         cert_original_free(o);
         return -1;
     }

@@ -77,8 +77,10 @@ typedef struct cert_original {
     uint32_t *cluster_vertex_start, *cluster_vertices;
 } cert_original;
 
-/* Builds normals and the BVH (with bvh_build_threads: the same tree for any
- * thread count). Returns 0, or -1 (out of memory / bad input). */
+/* Builds normals, the BVH (with bvh_build_threads: the same tree for any
+ * thread count) and the clusters, on up to `threads` threads (the normals
+ * beside the tree, the clusters' descriptions shared out): the same result
+ * for any thread count. Returns 0, or -1 (out of memory / bad input). */
 int cert_original_init(cert_original *o, const float *positions, uint32_t vertex_count,
                        const uint32_t *triangles, uint32_t triangle_count, const int32_t *material,
                        const uint32_t *vertex_offsets, const uint32_t *vertex_triangles, unsigned threads);
