@@ -214,13 +214,19 @@ static int build_clusters(cert_original *o, uint32_t vertex_count, unsigned thre
     pthread_t helper[CLUSTER_THREADS_MAX];
     unsigned started = 0;
     const unsigned wanted = threads < CLUSTER_THREADS_MAX ? threads : CLUSTER_THREADS_MAX;
-    while (started + 1 < wanted && started + 1 < work.tasks &&
+    /* one chunk of descriptions (up to 1024 clusters, 32K triangles) is not
+     * worth a thread */
+    while (work.tasks > 2 && started + 1 < wanted && started + 1 < work.tasks &&
            pthread_create(&helper[started], NULL, cluster_tasks, &work) == 0)
         started++;
     cluster_tasks(&work);
     for (unsigned t = 0; t < started; ++t) pthread_join(helper[t], NULL);
     return atomic_load(&work.failed) ? -1 : 0;
 }
+
+/* Fewer triangles than this: their normals are computed on the calling
+ * thread (a thread costs more). */
+#define NORMALS_BESIDE_MIN 4096u
 
 /* Every triangle's unit normal and whether it has none. */
 static void *compute_normals(void *p)
@@ -254,9 +260,11 @@ int cert_original_init(cert_original *o, const float *positions, uint32_t vertex
         cert_original_free(o);
         return -1;
     }
-    /* the tree needs no normals: with threads, they are computed beside it */
+    /* the tree needs no normals: with threads, they are computed beside it
+     * (when there are enough of them to be worth a thread) */
     pthread_t thread;
-    const int beside = threads > 1 && pthread_create(&thread, NULL, compute_normals, o) == 0;
+    const int beside =
+        threads > 1 && triangle_count > NORMALS_BESIDE_MIN && pthread_create(&thread, NULL, compute_normals, o) == 0;
     if (!beside) compute_normals(o);
     const bvh_result tree_rc = bvh_build_threads(&o->tree, positions, vertex_count, triangles, triangle_count, threads);
     if (beside) pthread_join(thread, NULL);

@@ -396,7 +396,7 @@ static int weld_and_simplify(scene *s, uint32_t m, const simplify_options *opt, 
     const scene_mesh *mesh = &s->meshes[m];
     memset(r, 0, sizeof *r);
     const double weld_start = lp_seconds();
-    int rc = weld_build(mesh, w, err);
+    int rc = weld_build(mesh, opt->threads, w, err);
     if (rc) return rc;
     const double weld_seconds = lp_seconds() - weld_start;
     weld_release_edge_opposite(w); /* nothing after the weld reads it */

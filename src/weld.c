@@ -25,8 +25,11 @@
 #include "weld.h"
 
 #include <assert.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "threads.h"
 
 #define NONE UINT32_MAX
 
@@ -430,13 +433,13 @@ static void sort_edge_ends(edge_end *x, size_t n)
 /* The triangle edges on one undirected edge, ascending: one is a border;
  * two running opposite ways are each other's opposite; anything else is
  * non-manifold. */
-static void pair_group(weld_result *out, const edge_end *group, size_t n)
+static void pair_group(weld_result *out, weld_stats *stats, const edge_end *group, size_t n)
 {
-    out->stats.edges++;
+    stats->edges++;
     if (n == 1) {
         out->edge_opposite[group[0].edge] = WELD_EDGE_IS_BORDER;
         out->edge_flags[group[0].edge] = WELD_FLAG_BORDER;
-        out->stats.border_edges++;
+        stats->border_edges++;
         return;
     }
     const uint32_t e = group[0].edge, o = group[n - 1].edge;
@@ -450,7 +453,7 @@ static void pair_group(weld_result *out, const edge_end *group, size_t n)
         out->edge_opposite[group[i].edge] = WELD_EDGE_IS_NONMANIFOLD;
         out->edge_flags[group[i].edge] = WELD_FLAG_NONMANIFOLD;
     }
-    out->stats.nonmanifold_edges++;
+    stats->nonmanifold_edges++;
 }
 
 /* Opposite edges from the vertex-triangle lists: each undirected edge is
@@ -458,16 +461,17 @@ static void pair_group(weld_result *out, const edge_end *group, size_t n)
  * (the one leaving it and the one entering it in each), sorted by the other
  * vertex. Local to each vertex's few triangles, where a hash table over all
  * edges missed the cache twice per edge (1.1M triangles: 0.46 s, now a
- * fraction of it); the sort keeps hub vertices at d log d. */
-static int pair_edges(weld_work *k, weld_result *out, lp_error *err)
+ * fraction of it); the sort keeps hub vertices at d log d. For the vertices
+ * [begin, end): it writes only their edges, and counts into *stats. */
+static int pair_edges(weld_result *out, uint32_t begin, uint32_t end, weld_stats *stats)
 {
     const uint32_t *off = out->vertex_triangle_offsets;
     uint32_t max_degree = 0;
-    for (uint32_t v = 0; v < out->vertex_count; ++v)
+    for (uint32_t v = begin; v < end; ++v)
         if (off[v + 1] - off[v] > max_degree) max_degree = off[v + 1] - off[v];
     edge_end *ends = alloc_array(2 * (size_t)max_degree, sizeof *ends);
-    if (!ends) return out_of_memory(k, err);
-    for (uint32_t v = 0; v < out->vertex_count; ++v) {
+    if (!ends) return -1;
+    for (uint32_t v = begin; v < end; ++v) {
         size_t n = 0;
         for (uint32_t i = off[v]; i < off[v + 1]; ++i) {
             const uint32_t t = out->vertex_triangles[i];
@@ -479,25 +483,25 @@ static int pair_edges(weld_work *k, weld_result *out, lp_error *err)
         sort_edge_ends(ends, n);
         for (size_t i = 0, j; i < n; i = j) {
             for (j = i + 1; j < n && ends[j].other == ends[i].other; ++j) {}
-            pair_group(out, ends + i, j - i);
+            pair_group(out, stats, ends + i, j - i);
         }
     }
     free(ends);
-    return LP_OK;
+    return 0;
 }
 
 /* A manifold interior edge e (a -> b) with opposite o (b -> a) is a seam when
- * the wedge classes differ at a or at b. Classes include the primitive. */
-static void mark_seams(weld_result *out)
+ * the wedge classes differ at a or at b. Classes include the primitive. For
+ * the edges [begin, end), counting into *stats. */
+static void mark_seams(weld_result *out, uint32_t begin, uint32_t end, weld_stats *stats)
 {
-    const uint32_t edges = 3 * out->triangle_count;
     const uint32_t *cls = out->wedge_class, *tw = out->triangle_wedges;
-    for (uint32_t e = 0; e < edges; ++e) {
+    for (uint32_t e = begin; e < end; ++e) {
         uint32_t o = out->edge_opposite[e];
         if (o >= WELD_EDGE_IS_NONMANIFOLD) continue;
         if (cls[tw[e]] != cls[tw[edge_next(o)]] || cls[tw[edge_next(e)]] != cls[tw[o]]) {
             out->edge_flags[e] |= WELD_FLAG_SEAM;
-            if (e < o) out->stats.seam_edges++;
+            if (e < o) stats->seam_edges++;
         }
     }
 }
@@ -583,16 +587,126 @@ static weld_kind classify_vertex(const weld_result *out, uint32_t v, int *severa
     return seams == 2 && changes == 2 ? WELD_SEAM : WELD_LOCKED;
 }
 
-static void classify_vertices(weld_result *out)
+/* The kinds of the vertices [begin, end), counting the non-manifold ones
+ * into *stats (count_kinds counts the kinds). */
+static void classify_vertices(weld_result *out, uint32_t begin, uint32_t end, weld_stats *stats)
 {
-    for (uint32_t v = 0; v < out->vertex_count; ++v) {
+    for (uint32_t v = begin; v < end; ++v) {
         int several_fans;
-        weld_kind kind = classify_vertex(out, v, &several_fans);
-        out->vertex_kind[v] = (uint8_t)kind;
-        out->stats.vertices_by_kind[kind]++;
-        if (several_fans) out->stats.nonmanifold_vertices++;
+        out->vertex_kind[v] = (uint8_t)classify_vertex(out, v, &several_fans);
+        if (several_fans) stats->nonmanifold_vertices++;
     }
+}
+
+/* Vertex and wedge counts by kind, from vertex_kind. */
+static void count_kinds(weld_result *out)
+{
+    memset(out->stats.vertices_by_kind, 0, sizeof out->stats.vertices_by_kind);
+    memset(out->stats.wedges_by_kind, 0, sizeof out->stats.wedges_by_kind);
+    for (uint32_t v = 0; v < out->vertex_count; ++v) out->stats.vertices_by_kind[out->vertex_kind[v]]++;
     for (uint32_t w = 0; w < out->wedge_count; ++w) out->stats.wedges_by_kind[out->vertex_kind[out->wedge_vertex[w]]]++;
+}
+
+/* ---- the topology on threads --------------------------------------------------- */
+
+/* Fewer triangles than this: the topology is built on the calling thread
+ * alone (threads cost more than they save). */
+#define WELD_THREADS_MIN_TRIANGLES 16384u
+#define WELD_THREADS_MAX 16u
+
+typedef enum { STEP_PAIR, STEP_SEAMS, STEP_KINDS } topology_step;
+
+/* One thread's share of a step: vertices (edges for STEP_SEAMS) [begin,
+ * end), and what it counted. */
+typedef struct topology_part {
+    weld_result *out;
+    topology_step step;
+    uint32_t begin, end;
+    int failed;
+    weld_stats stats;
+} topology_part;
+
+static void *run_part(void *p)
+{
+    topology_part *part = p;
+    if (part->step == STEP_PAIR) part->failed = pair_edges(part->out, part->begin, part->end, &part->stats);
+    else if (part->step == STEP_SEAMS) mark_seams(part->out, part->begin, part->end, &part->stats);
+    else classify_vertices(part->out, part->begin, part->end, &part->stats);
+    return NULL;
+}
+
+/* Runs a step over [0, count) cut into `threads` ranges, one per thread:
+ * each range writes only its own elements, and the counts are sums, so the
+ * result is that of one range. Returns 0, or -1 when memory runs out. */
+static int run_step(weld_result *out, topology_step step, uint32_t count, unsigned threads)
+{
+    topology_part parts[WELD_THREADS_MAX];
+    pthread_t thread[WELD_THREADS_MAX];
+    int started[WELD_THREADS_MAX];
+    for (unsigned t = 0; t < threads; ++t)
+        parts[t] = (topology_part){.out = out, .step = step,
+                                   .begin = (uint32_t)((uint64_t)count * t / threads),
+                                   .end = (uint32_t)((uint64_t)count * (t + 1) / threads)};
+    for (unsigned t = 1; t < threads; ++t) started[t] = pthread_create(&thread[t], NULL, run_part, &parts[t]) == 0;
+    run_part(&parts[0]);
+    int failed = parts[0].failed;
+    for (unsigned t = 1; t < threads; ++t) {
+        if (started[t]) pthread_join(thread[t], NULL);
+        else run_part(&parts[t]);
+        const weld_stats *c = &parts[t].stats;
+        failed |= parts[t].failed;
+        parts[0].stats.edges += c->edges;
+        parts[0].stats.border_edges += c->border_edges;
+        parts[0].stats.nonmanifold_edges += c->nonmanifold_edges;
+        parts[0].stats.seam_edges += c->seam_edges;
+        parts[0].stats.nonmanifold_vertices += c->nonmanifold_vertices;
+    }
+    const weld_stats *c = &parts[0].stats;
+    out->stats.edges += c->edges;
+    out->stats.border_edges += c->border_edges;
+    out->stats.nonmanifold_edges += c->nonmanifold_edges;
+    out->stats.seam_edges += c->seam_edges;
+    out->stats.nonmanifold_vertices += c->nonmanifold_vertices;
+    return failed ? -1 : 0;
+}
+
+typedef struct wedge_job {
+    weld_work *k;
+    weld_result *out;
+    lp_error err;
+    int rc;
+} wedge_job;
+
+static void *run_classify_wedges(void *p)
+{
+    wedge_job *job = p;
+    job->rc = classify_wedges(job->k, job->out, &job->err);
+    return NULL;
+}
+
+/* From the filled arrays: the vertex-triangle lists, the wedge classes
+ * (beside them on a thread of their own), the edge pairing, the seams and
+ * the vertex kinds, the last three cut into vertex (edge) ranges over the
+ * threads. */
+static int build_topology(weld_work *k, weld_result *out, unsigned threads, lp_error *err)
+{
+    if (out->triangle_count < WELD_THREADS_MIN_TRIANGLES) threads = 1;
+    if (threads > WELD_THREADS_MAX) threads = WELD_THREADS_MAX;
+    wedge_job job = {.k = k, .out = out};
+    pthread_t thread;
+    const int beside = threads > 1 && pthread_create(&thread, NULL, run_classify_wedges, &job) == 0;
+    build_vertex_triangles(out);
+    if (beside) pthread_join(thread, NULL);
+    else job.rc = classify_wedges(k, out, &job.err);
+    if (job.rc) {
+        *err = job.err;
+        return job.rc;
+    }
+    if (run_step(out, STEP_PAIR, out->vertex_count, threads)) return out_of_memory(k, err);
+    run_step(out, STEP_SEAMS, 3 * out->triangle_count, threads);
+    run_step(out, STEP_KINDS, out->vertex_count, threads);
+    count_kinds(out);
+    return LP_OK;
 }
 
 /* A dropped triangle is "dangling" when its segment (two distinct positions)
@@ -740,15 +854,6 @@ static void number_dangling(weld_work *k, const weld_result *out, uint32_t *vert
     }
 }
 
-/* Vertex and wedge counts by kind, again from vertex_kind. */
-static void count_kinds(weld_result *out)
-{
-    memset(out->stats.vertices_by_kind, 0, sizeof out->stats.vertices_by_kind);
-    memset(out->stats.wedges_by_kind, 0, sizeof out->stats.wedges_by_kind);
-    for (uint32_t v = 0; v < out->vertex_count; ++v) out->stats.vertices_by_kind[out->vertex_kind[v]]++;
-    for (uint32_t w = 0; w < out->wedge_count; ++w) out->stats.wedges_by_kind[out->vertex_kind[out->wedge_vertex[w]]]++;
-}
-
 /* A dangling triangle is a segment (or point) that may lie off the welded
  * surface, where no simplified face can be certified to stay within eps of
  * it: the levels carry it as it is instead, covered by itself. Its positions
@@ -807,7 +912,7 @@ static int keep_dangling(weld_work *k, weld_result *out, lp_error *err)
 
 /* ---- public ----------------------------------------------------------------- */
 
-int weld_build(const scene_mesh *mesh, weld_result *out, lp_error *err)
+int weld_build(const scene_mesh *mesh, uint32_t threads, weld_result *out, lp_error *err)
 {
     memset(out, 0, sizeof *out);
     weld_work k;
@@ -820,15 +925,9 @@ int weld_build(const scene_mesh *mesh, weld_result *out, lp_error *err)
     if (!rc) rc = allocate_result(&k, out, err);
     if (!rc) {
         fill_arrays(&k, out);
-        build_vertex_triangles(out);
-        rc = classify_wedges(&k, out, err);
+        rc = build_topology(&k, out, lp_threads(threads, WELD_THREADS_MAX), err);
     }
-    if (!rc) rc = pair_edges(&k, out, err);
-    if (!rc) {
-        mark_seams(out);
-        classify_vertices(out);
-        rc = find_dangling(&k, out, err);
-    }
+    if (!rc) rc = find_dangling(&k, out, err);
     if (!rc) rc = keep_dangling(&k, out, err);
     work_free(&k);
     if (rc) weld_free(out);

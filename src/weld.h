@@ -91,7 +91,9 @@
  * attribute components. The result depends on nothing but the
  * input (fixed hash functions, fixed iteration order), not on addresses,
  * threads or earlier calls. No global state: threads may weld different
- * meshes at once (the scene is only read). */
+ * meshes at once (the scene is only read). A large mesh's topology (wedge
+ * classes, edge pairing, seams, kinds) is built on up to the given number
+ * of threads, each writing its own range of the arrays: the same result. */
 #ifndef LODPIPE_WELD_H
 #define LODPIPE_WELD_H
 
@@ -182,8 +184,10 @@ typedef struct weld_result {
  * scene and are reached through wedge_primitive / wedge_index.
  * Returns LP_OK, or LP_INVALID with a message naming the mesh when a triangle
  * index is out of range, a primitive lacks positions, the mesh is larger than
- * WELD_MAX_*, or memory runs out; `out` is then empty (safe to weld_free). */
-int weld_build(const scene_mesh *mesh, weld_result *out, lp_error *err);
+ * WELD_MAX_*, or memory runs out; `out` is then empty (safe to weld_free).
+ * `threads` is a "threads" option (threads.h: 0 is one per core), the
+ * simplifier's own. */
+int weld_build(const scene_mesh *mesh, uint32_t threads, weld_result *out, lp_error *err);
 
 /* Frees every array of `w` and zeroes it. Safe on a zeroed or freed result. */
 void weld_free(weld_result *w);

@@ -104,7 +104,7 @@ static int run_mesh(scene *s, uint32_t m, const simplify_options *opt, const lod
     const scene_mesh *mesh = &s->meshes[m];
     lp_error err = {0, ""};
     weld_result w;
-    if (weld_build(mesh, &w, &err) != LP_OK) return 1;
+    if (weld_build(mesh, 1, &w, &err) != LP_OK) return 1;
     uint8_t loaded[SHA256_BYTES], reloaded[SHA256_BYTES];
     mesh_data_digest(s, m, loaded);
     scene_release_mesh_data(s, m);

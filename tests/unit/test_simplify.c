@@ -179,7 +179,7 @@ static int run_simplify(run *rn, const mesh *m, const double *fractions, uint32_
     }
     lp_error err;
     memset(&err, 0, sizeof err);
-    int rc = weld_build(&rn->sm, &rn->w, &err);
+    int rc = weld_build(&rn->sm, 1, &rn->w, &err);
     CHECK(rc == LP_OK, "weld_build: %s", err.msg);
     if (rc != LP_OK) return rc;
     rn->welded = 1;

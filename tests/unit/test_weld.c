@@ -16,8 +16,8 @@
 
 /* ---- building meshes ------------------------------------------------------ */
 
-#define MAX_V 1024
-#define MAX_T 1024
+#define MAX_V 8192
+#define MAX_T 8192
 #define MAX_P 4
 
 /* One primitive's data: positions and optional normals / UVs. */
@@ -320,7 +320,7 @@ static int weld_ok(const tmesh *m, weld_result *w)
 {
     lp_error err;
     memset(&err, 0, sizeof err);
-    int rc = weld_build(&m->mesh, w, &err);
+    int rc = weld_build(&m->mesh, 1, w, &err);
     CHECK(rc == LP_OK, "weld_build failed: %s", err.msg);
     if (rc == LP_OK) check_invariants(w, &m->mesh);
     return rc == LP_OK;
@@ -970,7 +970,7 @@ static void test_bad_index(void)
     weld_result w;
     lp_error err;
     memset(&err, 0, sizeof err);
-    int rc = weld_build(&m.mesh, &w, &err);
+    int rc = weld_build(&m.mesh, 1, &w, &err);
     CHECK(rc == LP_INVALID && err.code == LP_INVALID, "rc %d", rc);
     CHECK(strstr(err.msg, "bad") != NULL, "message names the mesh: %s", err.msg);
     CHECK(w.positions == NULL && w.vertex_count == 0, "result empty after failure");
@@ -1027,6 +1027,42 @@ static void test_deterministic(void)
     free(copy);
 }
 
+/* A mesh large enough for the threaded topology (four primitives, 28,800
+ * triangles: two copies of one cylinder, every edge non-manifold, and two
+ * grids of two materials side by side, a seam between them, that pinch the
+ * cylinder): the same result for any thread count. */
+static void test_threads_same_result(void)
+{
+    pbuf *cyl = pbuf_new(), *grid = pbuf_new(), *grid2 = pbuf_new();
+    build_cylinder(cyl, 60, 60);
+    build_grid(grid, 0, 60, 60);
+    build_grid(grid2, 60, 120, 60);
+    tmesh m;
+    tmesh_init(&m, "threads");
+    tmesh_add(&m, cyl, 0, 1, 1);
+    tmesh_add(&m, cyl, 1, 1, 0);
+    tmesh_add(&m, grid, 0, 1, 1);
+    tmesh_add(&m, grid2, 1, 1, 1);
+    weld_result one;
+    if (weld_ok(&m, &one)) {
+        CHECK(one.stats.nonmanifold_edges > 0 && one.stats.seam_edges > 0, "the mesh has what the threads split");
+        const uint32_t thread_counts[3] = {2, 3, 5};
+        for (int k = 0; k < 3; ++k) {
+            weld_result more;
+            lp_error err;
+            memset(&err, 0, sizeof err);
+            CHECK(weld_build(&m.mesh, thread_counts[k], &more, &err) == LP_OK, "%u threads: %s", thread_counts[k],
+                  err.msg);
+            CHECK(results_equal(&one, &more), "%u threads: the same result as one", thread_counts[k]);
+            weld_free(&more);
+        }
+    }
+    weld_free(&one);
+    free(cyl);
+    free(grid);
+    free(grid2);
+}
+
 static void test_collapse_rules(void)
 {
     CHECK(weld_collapse_allowed(WELD_MANIFOLD, 0), "manifold along an interior edge");
@@ -1061,6 +1097,7 @@ int main(void)
     RUN(test_skipped_primitives);
     RUN(test_bad_index);
     RUN(test_deterministic);
+    RUN(test_threads_same_result);
     RUN(test_collapse_rules);
     return check_summary();
 }
