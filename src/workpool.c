@@ -15,9 +15,15 @@
 
 /* Measured on a 2-core VM: waking a sleeping thread took longer than
  * evaluating a candidate, so in the late passes (batches of 2-4 expensive
- * candidates) the caller had evaluated most of them before the helper came;
- * a pass's serial steps between two batches take about a millisecond. */
-#define WORKPOOL_SPIN_SECONDS 0.002
+ * candidates) the caller had evaluated most of them before the helper came.
+ * Polling bridges the gap between two batches; it burns the idle core, which
+ * costs where the other core's work is small (a scene of 500 meshes of 96
+ * triangles, --threads 2: user + sys 5.1 s without a pool, 9.1 s polling
+ * 2 ms, 7.2 s polling 0.2 ms, 6.4 s polling 0.05 ms; its wall time 5.1, 5.0,
+ * 4.5, 4.8 s), while the 1.1M-triangle chain's levels 2-4 took about the same
+ * with each (0.29-0.33 / 0.12-0.15 / 0.05-0.07 s, against 0.39-0.42 / 0.18-
+ * 0.19 / 0.10-0.11 s without the pool). */
+#define WORKPOOL_SPIN_SECONDS 0.00005
 
 /* Polls (yielding the core) until *value differs from `from`, for at most
  * WORKPOOL_SPIN_SECONDS. */
