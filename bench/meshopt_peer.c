@@ -108,7 +108,7 @@ static void load_mesh(const char *path, const char *mesh_arg, peer_mesh *pm)
     }
     double t1 = now_seconds();
     if (k >= pm->s.mesh_count) die("mesh index %s out of range", mesh_arg);
-    if (weld_build(&pm->s.meshes[k], &pm->w, &err) != LP_OK) {
+    if (weld_build(&pm->s.meshes[k], 1, &pm->w, &err) != LP_OK) {
         fprintf(stderr, "meshopt_peer: %s: %s\n", path, err.msg);
         exit(1);
     }
