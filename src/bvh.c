@@ -9,9 +9,9 @@
 #include "bvh.h"
 
 #include "geom.h"
+#include "threads.h"
 
 #include <assert.h>
-#include <pthread.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -361,13 +361,12 @@ static void build_tree(builder *b, uint32_t n, unsigned threads)
     right.b.node_count = left_count;
     right.first = left_count;
     right.count = n - left_count;
-    pthread_t thread;
-    const int beside = pthread_create(&thread, NULL, build_subtree, &right) == 0;
+    lp_beside beside;
+    lp_beside_start(&beside, 1, build_subtree, &right);
     b->node_count = 1;
     b->depth = 0;
     build_node(b, 0, left_count, 1, &left_bounds);
-    if (beside) pthread_join(thread, NULL);
-    else build_subtree(&right);
+    lp_beside_join(&beside);
     const uint32_t right_root = b->node_count, shift = left_count - right_root;
     const uint32_t right_nodes = right.b.node_count - left_count;
     for (uint32_t i = left_count; i < right.b.node_count; i++)

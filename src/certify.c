@@ -8,13 +8,13 @@
 #include "certify.h"
 
 #include <math.h>
-#include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "geom.h"
 #include "overlay.h"
+#include "threads.h"
 
 static vec3d vertex_of(const cert_original *o, uint32_t v)
 {
@@ -199,9 +199,6 @@ static void *cluster_tasks(void *p)
     return NULL;
 }
 
-/* Largest number of threads describing clusters. */
-#define CLUSTER_THREADS_MAX 16u
-
 /* find_clusters, then the descriptions and the cluster vertices on up to
  * `threads` threads. Returns 0, or -1 when memory runs out. */
 static int build_clusters(cert_original *o, uint32_t vertex_count, unsigned threads)
@@ -211,16 +208,9 @@ static int build_clusters(cert_original *o, uint32_t vertex_count, unsigned thre
                          .tasks = 1 + (o->cluster_count + DESCRIBE_CHUNK - 1) / DESCRIBE_CHUNK};
     atomic_init(&work.next, 0u);
     atomic_init(&work.failed, 0);
-    pthread_t helper[CLUSTER_THREADS_MAX];
-    unsigned started = 0;
-    const unsigned wanted = threads < CLUSTER_THREADS_MAX ? threads : CLUSTER_THREADS_MAX;
     /* one chunk of descriptions (up to 1024 clusters, 32K triangles) is not
      * worth a thread */
-    while (work.tasks > 2 && started + 1 < wanted && started + 1 < work.tasks &&
-           pthread_create(&helper[started], NULL, cluster_tasks, &work) == 0)
-        started++;
-    cluster_tasks(&work);
-    for (unsigned t = 0; t < started; ++t) pthread_join(helper[t], NULL);
+    lp_team_run(work.tasks <= 2 ? 1 : threads < work.tasks ? threads : work.tasks, cluster_tasks, &work);
     return atomic_load(&work.failed) ? -1 : 0;
 }
 
@@ -262,12 +252,10 @@ int cert_original_init(cert_original *o, const float *positions, uint32_t vertex
     }
     /* the tree needs no normals: with threads, they are computed beside it
      * (when there are enough of them to be worth a thread) */
-    pthread_t thread;
-    const int beside =
-        threads > 1 && triangle_count > NORMALS_BESIDE_MIN && pthread_create(&thread, NULL, compute_normals, o) == 0;
-    if (!beside) compute_normals(o);
+    lp_beside normals;
+    lp_beside_start(&normals, threads > 1 && triangle_count > NORMALS_BESIDE_MIN, compute_normals, o);
     const bvh_result tree_rc = bvh_build_threads(&o->tree, positions, vertex_count, triangles, triangle_count, threads);
-    if (beside) pthread_join(thread, NULL);
+    lp_beside_join(&normals);
     if (tree_rc != BVH_OK || build_clusters(o, vertex_count, threads) != 0) {
         cert_original_free(o);
         return -1;

@@ -3,7 +3,6 @@
 
 #include <float.h>
 #include <math.h>
-#include <pthread.h>
 #include <stdarg.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -970,7 +969,6 @@ static int repeated_targets(const scene *s, uint32_t m, const weld_result *w, ui
  * does not hold them all; at least one. */
 #define MORPH_BATCH_TARGETS 64
 #define MORPH_BATCH_BYTES ((size_t)512 << 20)
-#define MORPH_MAX_THREADS 64
 
 /* One distinct target of a batch: LOD0 and every kept level moved by it. A
  * level that shares LOD0's vertices shares its moved positions and the
@@ -1016,14 +1014,8 @@ static void *morph_worker(void *arg)
 
 static void run_morph_work(morph_work *work, uint32_t threads)
 {
-    pthread_t helpers[MORPH_MAX_THREADS];
     const uint32_t jobs = work->slot_count * work->level_count;
-    uint32_t started = 0;
-    while (started + 1 < threads && started + 1 < jobs)
-        if (pthread_create(&helpers[started], NULL, morph_worker, work) == 0) started++;
-        else break; /* the calling thread does what is left */
-    morph_worker(work);
-    for (uint32_t i = 0; i < started; ++i) pthread_join(helpers[i], NULL);
+    lp_team_run(threads < jobs ? threads : jobs, morph_worker, work);
 }
 
 static void free_slot(morph_slot *slot, uint32_t level_count)
@@ -1111,7 +1103,7 @@ static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, cons
         for (; t < targets && work.slot_count < batch && !rc; ++t)
             if (same[t] == t) rc = fill_slot(s, m, w, r, kept, levels, level_count, t, &slots[work.slot_count++], err);
         atomic_store(&work.next, 0);
-        if (!rc) run_morph_work(&work, lp_threads(threads, MORPH_MAX_THREADS));
+        if (!rc) run_morph_work(&work, lp_threads(threads, LP_TEAM_MAX));
         for (uint32_t i = 0; i < work.slot_count; ++i) free_slot(&slots[i], level_count);
     }
     for (uint32_t t = 0; t < targets && !rc; ++t)

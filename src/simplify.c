@@ -3257,12 +3257,11 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     /* the quadrics and the certificate's original share nothing: with a
      * second thread the planes go in beside the certificate's serial steps
      * (its normals, the BVH's first split, the clusters) */
-    pthread_t thread;
-    const int beside = s->thread_count > 1 && pthread_create(&thread, NULL, add_planes, s) == 0;
-    if (!beside) add_planes(s);
+    lp_beside planes;
+    lp_beside_start(&planes, s->thread_count > 1, add_planes, s);
     const int cert_rc = cert_original_init(&s->orig, w->positions, nv, w->triangle_vertices, nf, s->face_material,
                                            w->vertex_triangle_offsets, w->vertex_triangles, s->thread_count);
-    if (beside) pthread_join(thread, NULL);
+    lp_beside_join(&planes);
     if (cert_rc) return -1;
     const uint32_t clusters = s->orig.cluster_count;
     const size_t units = (size_t)nf + clusters;

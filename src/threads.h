@@ -1,10 +1,17 @@
 /* threads.h - how many threads a "threads" option means: the number asked
  * for, or one per online core when it is 0 (at least one), never more than
  * the caller's fixed arrays hold. The simplifier, the morph measurement and
- * the batch scheduler resolve their option through it. */
+ * the batch scheduler resolve their option through it.
+ *
+ * And the two short-lived forms of threads the set-up and the measurements
+ * use (the simplifier's loop has a pool that lives for a mesh: workpool.h):
+ * one piece of work beside the caller (lp_beside), and a team that shares
+ * work through a counter (lp_team_run). Neither fails: work that finds no
+ * thread runs on the caller. */
 #ifndef LODPIPE_THREADS_H
 #define LODPIPE_THREADS_H
 
+#include <pthread.h>
 #include <stdint.h>
 #include <unistd.h>
 
@@ -16,6 +23,44 @@ static inline uint32_t lp_threads(uint32_t requested, uint32_t cap)
         n = cores > 0 ? (uint32_t)(cores < (long)UINT32_MAX ? cores : (long)UINT32_MAX) : 1;
     }
     return n > cap ? cap : n;
+}
+
+/* Work beside the caller: fn(arg) runs on a thread of its own when `wanted`
+ * and one starts, else on the caller before lp_beside_start returns. */
+typedef struct lp_beside {
+    pthread_t thread;
+    int running;
+} lp_beside;
+
+static inline void lp_beside_start(lp_beside *b, int wanted, void *(*fn)(void *), void *arg)
+{
+    b->running = wanted && pthread_create(&b->thread, NULL, fn, arg) == 0;
+    if (!b->running) fn(arg);
+}
+
+/* Waits for the work lp_beside_start began (at once when it ran on the
+ * caller); everything it wrote is then visible. */
+static inline void lp_beside_join(lp_beside *b)
+{
+    if (b->running) pthread_join(b->thread, NULL);
+    b->running = 0;
+}
+
+#define LP_TEAM_MAX 64
+
+/* fn(arg) on the caller and on up to threads - 1 (at most LP_TEAM_MAX - 1)
+ * threads of their own, as many as start; returns when all have returned.
+ * fn takes its work from a counter in arg until none is left, so all of it
+ * is done however many threads start, and what each piece computes must not
+ * depend on which thread runs it. */
+static inline void lp_team_run(uint32_t threads, void *(*fn)(void *), void *arg)
+{
+    pthread_t helper[LP_TEAM_MAX];
+    uint32_t started = 0;
+    if (threads > LP_TEAM_MAX) threads = LP_TEAM_MAX;
+    while (started + 1 < threads && pthread_create(&helper[started], NULL, fn, arg) == 0) started++;
+    fn(arg);
+    for (uint32_t t = 0; t < started; ++t) pthread_join(helper[t], NULL);
 }
 
 #endif

@@ -25,7 +25,7 @@
 #include "weld.h"
 
 #include <assert.h>
-#include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -626,47 +626,51 @@ typedef struct topology_part {
     weld_stats stats;
 } topology_part;
 
-static void *run_part(void *p)
+static void run_part(topology_part *part)
 {
-    topology_part *part = p;
     if (part->step == STEP_PAIR) part->failed = pair_edges(part->out, part->begin, part->end, &part->stats);
     else if (part->step == STEP_SEAMS) mark_seams(part->out, part->begin, part->end, &part->stats);
     else classify_vertices(part->out, part->begin, part->end, &part->stats);
+}
+
+/* A step's ranges, taken in turn by the team (lp_team_run). */
+typedef struct topology_team {
+    topology_part *parts;
+    unsigned count;
+    atomic_uint next;
+} topology_team;
+
+static void *run_parts(void *p)
+{
+    topology_team *team = p;
+    for (unsigned i; (i = atomic_fetch_add(&team->next, 1u)) < team->count;) run_part(&team->parts[i]);
     return NULL;
 }
 
-/* Runs a step over [0, count) cut into `threads` ranges, one per thread:
- * each range writes only its own elements, and the counts are sums, so the
- * result is that of one range. Returns 0, or -1 when memory runs out. */
+/* Runs a step over [0, count) cut into `threads` ranges: each range writes
+ * only its own elements, and the counts are sums, so the result is that of
+ * one range, whichever thread runs which. Returns 0, or -1 when memory runs
+ * out. */
 static int run_step(weld_result *out, topology_step step, uint32_t count, unsigned threads)
 {
     topology_part parts[WELD_THREADS_MAX];
-    pthread_t thread[WELD_THREADS_MAX];
-    int started[WELD_THREADS_MAX];
     for (unsigned t = 0; t < threads; ++t)
         parts[t] = (topology_part){.out = out, .step = step,
                                    .begin = (uint32_t)((uint64_t)count * t / threads),
                                    .end = (uint32_t)((uint64_t)count * (t + 1) / threads)};
-    for (unsigned t = 1; t < threads; ++t) started[t] = pthread_create(&thread[t], NULL, run_part, &parts[t]) == 0;
-    run_part(&parts[0]);
-    int failed = parts[0].failed;
-    for (unsigned t = 1; t < threads; ++t) {
-        if (started[t]) pthread_join(thread[t], NULL);
-        else run_part(&parts[t]);
+    topology_team team = {.parts = parts, .count = threads};
+    atomic_init(&team.next, 0u);
+    lp_team_run(threads, run_parts, &team);
+    int failed = 0;
+    for (unsigned t = 0; t < threads; ++t) {
         const weld_stats *c = &parts[t].stats;
         failed |= parts[t].failed;
-        parts[0].stats.edges += c->edges;
-        parts[0].stats.border_edges += c->border_edges;
-        parts[0].stats.nonmanifold_edges += c->nonmanifold_edges;
-        parts[0].stats.seam_edges += c->seam_edges;
-        parts[0].stats.nonmanifold_vertices += c->nonmanifold_vertices;
+        out->stats.edges += c->edges;
+        out->stats.border_edges += c->border_edges;
+        out->stats.nonmanifold_edges += c->nonmanifold_edges;
+        out->stats.seam_edges += c->seam_edges;
+        out->stats.nonmanifold_vertices += c->nonmanifold_vertices;
     }
-    const weld_stats *c = &parts[0].stats;
-    out->stats.edges += c->edges;
-    out->stats.border_edges += c->border_edges;
-    out->stats.nonmanifold_edges += c->nonmanifold_edges;
-    out->stats.seam_edges += c->seam_edges;
-    out->stats.nonmanifold_vertices += c->nonmanifold_vertices;
     return failed ? -1 : 0;
 }
 
@@ -693,11 +697,10 @@ static int build_topology(weld_work *k, weld_result *out, unsigned threads, lp_e
     if (out->triangle_count < WELD_THREADS_MIN_TRIANGLES) threads = 1;
     if (threads > WELD_THREADS_MAX) threads = WELD_THREADS_MAX;
     wedge_job job = {.k = k, .out = out};
-    pthread_t thread;
-    const int beside = threads > 1 && pthread_create(&thread, NULL, run_classify_wedges, &job) == 0;
+    lp_beside wedges;
+    lp_beside_start(&wedges, threads > 1, run_classify_wedges, &job);
     build_vertex_triangles(out);
-    if (beside) pthread_join(thread, NULL);
-    else job.rc = classify_wedges(k, out, &job.err);
+    lp_beside_join(&wedges);
     if (job.rc) {
         *err = job.err;
         return job.rc;
