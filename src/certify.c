@@ -8,7 +8,6 @@
 #include "certify.h"
 
 #include <math.h>
-#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -169,34 +168,29 @@ static int collect_cluster_vertices(cert_original *o, uint32_t vertex_count)
     return 0;
 }
 
-/* Clusters described per DESCRIBE_CHUNK: the tasks threads share. */
+/* Clusters described per item of the team (build_clusters). */
 #define DESCRIBE_CHUNK 1024u
 
-/* The cluster work after find_clusters, as tasks taken in turn from an
- * atomic counter: task 0 collects the cluster vertices, task k > 0 describes
- * chunk k - 1. Each task writes only its own part of the arrays, so which
- * thread runs which changes nothing. */
+/* The cluster work after find_clusters, as items of a team (lp_team_for):
+ * item 0 collects the cluster vertices, item k > 0 describes chunk k - 1.
+ * Each writes only its own part of the arrays. */
 typedef struct cluster_work {
     cert_original *o;
-    uint32_t vertex_count, tasks;
-    atomic_uint next;
-    atomic_int failed;
+    uint32_t vertex_count;
+    int failed; /* written by item 0 only */
 } cluster_work;
 
-static void *cluster_tasks(void *p)
+static void cluster_item(void *p, uint32_t k)
 {
     cluster_work *work = p;
     cert_original *o = work->o;
-    for (uint32_t k; (k = atomic_fetch_add(&work->next, 1u)) < work->tasks;) {
-        if (k == 0) {
-            if (collect_cluster_vertices(o, work->vertex_count)) atomic_store(&work->failed, 1);
-            continue;
-        }
-        const uint32_t first = (k - 1) * DESCRIBE_CHUNK;
-        const uint32_t end = o->cluster_count - first < DESCRIBE_CHUNK ? o->cluster_count : first + DESCRIBE_CHUNK;
-        for (uint32_t c = first; c < end; ++c) describe_cluster(o, &o->clusters[c]);
+    if (k == 0) {
+        work->failed = collect_cluster_vertices(o, work->vertex_count) != 0;
+        return;
     }
-    return NULL;
+    const uint32_t first = (k - 1) * DESCRIBE_CHUNK;
+    const uint32_t end = o->cluster_count - first < DESCRIBE_CHUNK ? o->cluster_count : first + DESCRIBE_CHUNK;
+    for (uint32_t c = first; c < end; ++c) describe_cluster(o, &o->clusters[c]);
 }
 
 /* find_clusters, then the descriptions and the cluster vertices on up to
@@ -204,14 +198,12 @@ static void *cluster_tasks(void *p)
 static int build_clusters(cert_original *o, uint32_t vertex_count, unsigned threads)
 {
     if (find_clusters(o)) return -1;
-    cluster_work work = {.o = o, .vertex_count = vertex_count,
-                         .tasks = 1 + (o->cluster_count + DESCRIBE_CHUNK - 1) / DESCRIBE_CHUNK};
-    atomic_init(&work.next, 0u);
-    atomic_init(&work.failed, 0);
+    cluster_work work = {.o = o, .vertex_count = vertex_count};
+    const uint32_t items = 1 + (o->cluster_count + DESCRIBE_CHUNK - 1) / DESCRIBE_CHUNK;
     /* one chunk of descriptions (up to 1024 clusters, 32K triangles) is not
      * worth a thread */
-    lp_team_run(work.tasks <= 2 ? 1 : threads < work.tasks ? threads : work.tasks, cluster_tasks, &work);
-    return atomic_load(&work.failed) ? -1 : 0;
+    lp_team_for(items <= 2 ? 1 : threads, items, cluster_item, &work);
+    return work.failed ? -1 : 0;
 }
 
 /* Fewer triangles than this: their normals are computed on the calling

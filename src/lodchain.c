@@ -4,7 +4,6 @@
 #include <float.h>
 #include <math.h>
 #include <stdarg.h>
-#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -994,28 +993,17 @@ typedef struct morph_work {
     uint32_t slot_count, level_count, target_count;
     double spacing;
     double *errors; /* lodchain_summary.morph_errors */
-    atomic_uint next;
 } morph_work;
 
-static void *morph_worker(void *arg)
+/* Job j of a batch (an item of lp_team_for). */
+static void morph_item(void *arg, uint32_t j)
 {
     morph_work *work = arg;
-    const uint32_t jobs = work->slot_count * work->level_count;
-    for (;;) {
-        const uint32_t j = atomic_fetch_add_explicit(&work->next, 1, memory_order_relaxed);
-        if (j >= jobs) return NULL;
-        const morph_slot *slot = &work->slots[j / work->level_count];
-        const uint32_t k = j % work->level_count;
-        /* what measure_two_sided gives, LOD0's tree built once: -1 when it cannot be built */
-        work->errors[(size_t)k * work->target_count + slot->target] =
-            slot->built ? measure_two_sided_with(&slot->lod0, &slot->tree, &slot->level[k], work->spacing) : -1.0;
-    }
-}
-
-static void run_morph_work(morph_work *work, uint32_t threads)
-{
-    const uint32_t jobs = work->slot_count * work->level_count;
-    lp_team_run(threads < jobs ? threads : jobs, morph_worker, work);
+    const morph_slot *slot = &work->slots[j / work->level_count];
+    const uint32_t k = j % work->level_count;
+    /* what measure_two_sided gives, LOD0's tree built once: -1 when it cannot be built */
+    work->errors[(size_t)k * work->target_count + slot->target] =
+        slot->built ? measure_two_sided_with(&slot->lod0, &slot->tree, &slot->level[k], work->spacing) : -1.0;
 }
 
 static void free_slot(morph_slot *slot, uint32_t level_count)
@@ -1097,13 +1085,12 @@ static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, cons
                                                                           : MORPH_BATCH_TARGETS;
         if (batch < 1) batch = 1;
     }
-    morph_work work = {slots, 0, level_count, targets, r->diagonal / 400.0, out->morph_errors, 0};
+    morph_work work = {slots, 0, level_count, targets, r->diagonal / 400.0, out->morph_errors};
     for (uint32_t t = 0; t < targets && !rc;) {
         work.slot_count = 0;
         for (; t < targets && work.slot_count < batch && !rc; ++t)
             if (same[t] == t) rc = fill_slot(s, m, w, r, kept, levels, level_count, t, &slots[work.slot_count++], err);
-        atomic_store(&work.next, 0);
-        if (!rc) run_morph_work(&work, lp_threads(threads, LP_TEAM_MAX));
+        if (!rc) lp_team_for(lp_threads(threads, LP_TEAM_MAX), work.slot_count * level_count, morph_item, &work);
         for (uint32_t i = 0; i < work.slot_count; ++i) free_slot(&slots[i], level_count);
     }
     for (uint32_t t = 0; t < targets && !rc; ++t)

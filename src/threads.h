@@ -6,12 +6,13 @@
  * And the two short-lived forms of threads the set-up and the measurements
  * use (the simplifier's loop has a pool that lives for a mesh: workpool.h):
  * one piece of work beside the caller (lp_beside), and a team that shares
- * work through a counter (lp_team_run). Neither fails: work that finds no
+ * numbered items through a counter (lp_team_for). Neither fails: work that finds no
  * thread runs on the caller. */
 #ifndef LODPIPE_THREADS_H
 #define LODPIPE_THREADS_H
 
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <unistd.h>
 
@@ -48,18 +49,38 @@ static inline void lp_beside_join(lp_beside *b)
 
 #define LP_TEAM_MAX 64
 
-/* fn(arg) on the caller and on up to threads - 1 (at most LP_TEAM_MAX - 1)
- * threads of their own, as many as start; returns when all have returned.
- * fn takes its work from a counter in arg until none is left, so all of it
- * is done however many threads start, and what each piece computes must not
- * depend on which thread runs it. */
-static inline void lp_team_run(uint32_t threads, void *(*fn)(void *), void *arg)
+/* A team's shared state: the next item to claim. */
+typedef struct lp_team {
+    void (*item)(void *arg, uint32_t i);
+    void *arg;
+    uint32_t count;
+    atomic_uint next;
+} lp_team;
+
+static inline void *lp_team_member(void *p)
 {
+    lp_team *team = p;
+    for (uint32_t i; (i = atomic_fetch_add_explicit(&team->next, 1u, memory_order_relaxed)) < team->count;)
+        team->item(team->arg, i);
+    return NULL;
+}
+
+/* item(arg, i) once for every i < count, by a team: the caller and up to
+ * threads - 1 (at most LP_TEAM_MAX - 1, and fewer than count) threads of
+ * their own, as many as start, each claiming the next item until none is
+ * left. Returns when all items are done; what they wrote is then visible.
+ * Items must write apart from each other, and what each computes must not
+ * depend on which thread runs it. */
+static inline void lp_team_for(uint32_t threads, uint32_t count, void (*item)(void *arg, uint32_t i), void *arg)
+{
+    lp_team team = {item, arg, count, 0};
+    atomic_init(&team.next, 0u);
     pthread_t helper[LP_TEAM_MAX];
     uint32_t started = 0;
     if (threads > LP_TEAM_MAX) threads = LP_TEAM_MAX;
-    while (started + 1 < threads && pthread_create(&helper[started], NULL, fn, arg) == 0) started++;
-    fn(arg);
+    while (started + 1 < threads && started + 1 < count && pthread_create(&helper[started], NULL, lp_team_member, &team) == 0)
+        started++;
+    lp_team_member(&team);
     for (uint32_t t = 0; t < started; ++t) pthread_join(helper[t], NULL);
 }
 

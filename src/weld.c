@@ -25,7 +25,6 @@
 #include "weld.h"
 
 #include <assert.h>
-#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -626,25 +625,13 @@ typedef struct topology_part {
     weld_stats stats;
 } topology_part;
 
-static void run_part(topology_part *part)
+/* Range i of a step (an item of lp_team_for). */
+static void run_part(void *parts, uint32_t i)
 {
+    topology_part *part = &((topology_part *)parts)[i];
     if (part->step == STEP_PAIR) part->failed = pair_edges(part->out, part->begin, part->end, &part->stats);
     else if (part->step == STEP_SEAMS) mark_seams(part->out, part->begin, part->end, &part->stats);
     else classify_vertices(part->out, part->begin, part->end, &part->stats);
-}
-
-/* A step's ranges, taken in turn by the team (lp_team_run). */
-typedef struct topology_team {
-    topology_part *parts;
-    unsigned count;
-    atomic_uint next;
-} topology_team;
-
-static void *run_parts(void *p)
-{
-    topology_team *team = p;
-    for (unsigned i; (i = atomic_fetch_add(&team->next, 1u)) < team->count;) run_part(&team->parts[i]);
-    return NULL;
 }
 
 /* Runs a step over [0, count) cut into `threads` ranges: each range writes
@@ -658,9 +645,7 @@ static int run_step(weld_result *out, topology_step step, uint32_t count, unsign
         parts[t] = (topology_part){.out = out, .step = step,
                                    .begin = (uint32_t)((uint64_t)count * t / threads),
                                    .end = (uint32_t)((uint64_t)count * (t + 1) / threads)};
-    topology_team team = {.parts = parts, .count = threads};
-    atomic_init(&team.next, 0u);
-    lp_team_run(threads, run_parts, &team);
+    lp_team_for(threads, threads, run_part, parts);
     int failed = 0;
     for (unsigned t = 0; t < threads; ++t) {
         const weld_stats *c = &parts[t].stats;
