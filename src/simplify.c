@@ -175,6 +175,9 @@ typedef struct scratch {
     u32vec out_u32;
     f64vec out_f64;
     int oom;
+    /* with verify: a vertex whose collapse cover_doomed rejected and the
+     * (b) loop accepted (NONE: none) */
+    uint32_t doomed_passed;
 } scratch;
 
 #define REGION_SHARED UINT32_MAX
@@ -1115,7 +1118,7 @@ static int certify_change(const sim *s, scratch *sc, candidate *c, const collaps
      * the global passes) */
     const int doomed = cl && !sc->region ? cover_doomed(s, sc, cl, star_faces, &prepared) : 0;
     if (doomed < 0) return sc->oom = 1, 0;
-    if (doomed) {
+    if (doomed && !s->verify) { /* (verify runs the loop: it must reject) */
         c->reason = SIMPLIFY_REJECT_COVER;
         return 0;
     }
@@ -1176,6 +1179,7 @@ static int certify_change(const sim *s, scratch *sc, candidate *c, const collaps
             if (u32_push(&sc->out_u32, k < n ? used[k] : NONE)) return sc->oom = 1, 0;
         if (f64_push(&sc->out_f64, bound)) return sc->oom = 1, 0;
     }
+    if (doomed) sc->doomed_passed = u; /* process_batch reports it */
     /* (a): every changed face within eps of the original */
     uint32_t changed = 0;
     for (size_t i = 0; i < sc->changed.size; ++i) {
@@ -2247,11 +2251,18 @@ static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
     simplify_stats *st = s->stats;
     double t3 = lp_seconds();
     st->batches++;
-    for (uint32_t t = 0; t < s->thread_count; ++t)
-        if (s->scratch[t].oom) {
+    for (uint32_t t = 0; t < s->thread_count; ++t) {
+        if (s->scratch[t].doomed_passed != NONE) {
+            s->verify_failed = 1;
+            snprintf(s->verify_msg, sizeof s->verify_msg,
+                     "collapse of %u: rejected early as beyond cover (cover_doomed), passed the certificate's (b)",
+                     s->scratch[t].doomed_passed);
+        }
+        if (s->scratch[t].oom || s->verify_failed) {
             *commits = -1;
             return;
         }
+    }
     s->batch_stars.faces.size = s->batch_stars.end.size = s->batch_stars.box.size = 0;
     const committer cm = {&s->serial, st, &s->commit_clock, &s->batch_stars, NULL};
     /* the grid's updates go to the core that would otherwise wait */
@@ -3292,6 +3303,7 @@ static void sim_free(sim *s)
 static int scratch_init(scratch *sc, uint32_t nv)
 {
     sc->vertex_seen = calloc((size_t)nv + 1, sizeof *sc->vertex_seen);
+    sc->doomed_passed = NONE;
     return sc->vertex_seen ? 0 : -1;
 }
 
