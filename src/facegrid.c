@@ -167,17 +167,31 @@ facegrid_result facegrid_init(facegrid *g, double cell_size, uint32_t face_capac
 {
     if (!g) return FACEGRID_ERROR_INVALID_ARGUMENT;
     memset(g, 0, sizeof *g);
-    g->entry_free = FACEGRID_NONE;
+    return facegrid_reset(g, cell_size, face_capacity);
+}
+
+facegrid_result facegrid_reset(facegrid *g, double cell_size, uint32_t face_capacity)
+{
+    if (!g) return FACEGRID_ERROR_INVALID_ARGUMENT;
     if (!(cell_size > 0) || !isfinite(cell_size) || !isfinite(1.0 / cell_size) ||
-        face_capacity > FACEGRID_MAX_FACES)
+        face_capacity > FACEGRID_MAX_FACES) {
+        facegrid_free(g);
         return FACEGRID_ERROR_INVALID_ARGUMENT;
+    }
     g->cell_size = cell_size;
     g->inverse_cell_size = 1.0 / cell_size;
     g->face_capacity = face_capacity;
-    g->face_head = malloc((face_capacity ? face_capacity : 1) * sizeof *g->face_head);
-    g->table = malloc(128 * sizeof *g->table);
-    g->table_mask = 127;
-    if (!g->face_head || !g->table || reserve_cells(g, 1) != 0) {
+    if (!g->face_head || face_capacity > g->face_allocated) {
+        free(g->face_head);
+        g->face_allocated = face_capacity ? face_capacity : 1;
+        g->face_head = malloc((size_t)g->face_allocated * sizeof *g->face_head);
+    }
+    if (!g->table) {
+        g->table = malloc(128 * sizeof *g->table);
+        g->table_mask = 127;
+    }
+    if (!g->cells) g->cell_count = 0;
+    if (!g->face_head || !g->table || (!g->cells && reserve_cells(g, 1) != 0)) {
         facegrid_free(g);
         return FACEGRID_ERROR_OUT_OF_MEMORY;
     }
@@ -213,7 +227,7 @@ void facegrid_free(facegrid *g)
 size_t facegrid_memory(const facegrid *g)
 {
     if (!g || !g->face_head) return 0;
-    return (size_t)g->face_capacity * sizeof *g->face_head +
+    return (size_t)g->face_allocated * sizeof *g->face_head +
            (size_t)g->entry_capacity * sizeof *g->entries +
            (size_t)g->cell_capacity * sizeof *g->cells +
            ((size_t)g->table_mask + 1) * sizeof *g->table;

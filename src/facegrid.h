@@ -25,7 +25,7 @@
  * Order of reports: deterministic for a given sequence of inserts and removes
  * (it does not depend on addresses or on threads), otherwise unspecified.
  *
- * Memory: per face slot 4 bytes (face_capacity fixed at init); a 16-byte
+ * Memory: per face slot 4 bytes (face_capacity fixed at init or reset); a 16-byte
  * entry per (face, cell) pair, pooled with a free list and grown by doubling;
  * a 32-byte record per cell ever used and a 4-byte hash slot per cell at load
  * <= 1/2. Cells are not forgotten when they empty (so the table never needs
@@ -74,6 +74,7 @@ typedef struct {
     double cell_size;
     double inverse_cell_size;
     uint32_t face_capacity;
+    uint32_t face_allocated;        /* face_head's length (>= face_capacity) */
     uint32_t face_count;            /* faces present */
     uint32_t *face_head;            /* first entry of each face, or FACEGRID_NONE */
     facegrid_entry *entries;
@@ -92,6 +93,15 @@ typedef struct {
  * <= FACEGRID_MAX_FACES) with cubic cells of side cell_size (finite, > 0). On failure the grid is empty and safe to
  * facegrid_free. */
 facegrid_result facegrid_init(facegrid *g, double cell_size, uint32_t face_capacity);
+
+/* facegrid_init for a grid that is initialised already (or all zero), with
+ * the same result, except that the allocations stay where they are large
+ * enough: a grid rebuilt again and again then writes to memory it has used
+ * before instead of faulting fresh pages in (and its hash table keeps its
+ * size, which changes no query's reports: cells are numbered in the order
+ * they are made, whatever the table's size). On failure the grid is empty
+ * and safe to facegrid_free. */
+facegrid_result facegrid_reset(facegrid *g, double cell_size, uint32_t face_capacity);
 
 /* Enters face (< face_capacity) with the box [lo, hi]. A face already present
  * is first removed (so insert also moves a face). On out of memory the face

@@ -9,16 +9,43 @@
 
 int radix_sort_u64(uint64_t *key, uint32_t *value, size_t n, uint64_t max_key)
 {
+    radix_scratch scratch = {0};
+    const int rc = radix_sort_u64_with(key, value, n, max_key, &scratch);
+    radix_scratch_free(&scratch);
+    return rc;
+}
+
+void radix_scratch_free(radix_scratch *scratch)
+{
+    free(scratch->key);
+    free(scratch->value);
+    free(scratch->count);
+    memset(scratch, 0, sizeof *scratch);
+}
+
+/* Grows *data to hold n items of elem bytes (its contents are not kept). */
+static int room(void **data, size_t *cap, size_t n, size_t elem)
+{
+    if (*data && *cap >= n) return 0;
+    void *p = malloc(n * elem);
+    if (!p) return -1;
+    free(*data);
+    *data = p;
+    *cap = n;
+    return 0;
+}
+
+int radix_sort_u64_with(uint64_t *key, uint32_t *value, size_t n, uint64_t max_key, radix_scratch *scratch)
+{
     if (n < 2 || max_key == 0) return 0;
-    uint64_t *tmp_key = malloc(n * sizeof *tmp_key);
-    uint32_t *tmp_value = value ? malloc(n * sizeof *tmp_value) : NULL;
-    size_t *count = malloc(DIGITS * sizeof *count);
-    if (!tmp_key || (value && !tmp_value) || !count) {
-        free(tmp_key);
-        free(tmp_value);
-        free(count);
+    size_t count_cap = scratch->count ? DIGITS : 0;
+    if (room((void **)&scratch->key, &scratch->key_cap, n, sizeof *scratch->key) ||
+        (value && room((void **)&scratch->value, &scratch->value_cap, n, sizeof *scratch->value)) ||
+        room((void **)&scratch->count, &count_cap, DIGITS, sizeof *scratch->count))
         return -1;
-    }
+    uint64_t *tmp_key = scratch->key;
+    uint32_t *tmp_value = value ? scratch->value : NULL;
+    size_t *count = scratch->count;
     uint64_t *from_key = key, *to_key = tmp_key;
     uint32_t *from_value = value, *to_value = tmp_value;
     for (unsigned shift = 0; shift < 64 && (max_key >> shift) != 0; shift += DIGIT_BITS) {
@@ -46,8 +73,5 @@ int radix_sort_u64(uint64_t *key, uint32_t *value, size_t n, uint64_t max_key)
         memcpy(key, from_key, n * sizeof *key);
         if (value) memcpy(value, from_value, n * sizeof *value);
     }
-    free(tmp_key);
-    free(tmp_value);
-    free(count);
     return 0;
 }

@@ -17,4 +17,19 @@
 
 int radix_sort_u64(uint64_t *key, uint32_t *value, size_t n, uint64_t max_key);
 
+/* Scratch that one caller keeps across sorts (all zero to start): a caller
+ * that sorts again and again then reuses memory whose pages are in already
+ * instead of faulting fresh ones in at every sort. */
+typedef struct radix_scratch {
+    uint64_t *key;
+    uint32_t *value;
+    size_t *count;
+    size_t key_cap, value_cap;
+} radix_scratch;
+
+/* radix_sort_u64 with its scratch in *scratch (grown when too small). */
+int radix_sort_u64_with(uint64_t *key, uint32_t *value, size_t n, uint64_t max_key, radix_scratch *scratch);
+
+void radix_scratch_free(radix_scratch *scratch);
+
 #endif

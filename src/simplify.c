@@ -290,8 +290,10 @@ typedef struct sim {
     /* every alive face, for the self-intersection test of the global
      * passes; rebuilt when the faces have halved, so cells follow the faces'
      * growing size. Built when a level's first pass needs it (grid_current
-     * 0), or after the region rounds: the rounds use grids of their own, so
-     * one built at the level's start would be thrown away unread. */
+     * 0), or after the region rounds, which fill it with the faces no
+     * region owns (each round's shared grid): one built at the level's
+     * start would be thrown away unread. Rebuilt in place (facegrid_reset),
+     * so its pages are faulted in once per mesh, not at every rebuild. */
     facegrid grid;
     gridlog grid_log; /* the commit's updates of grid (gridlog.h) */
     uint32_t grid_built_with;
@@ -318,6 +320,13 @@ typedef struct sim {
     uint32_t spatial_count, region_alive0;
     double region_cell;
     uint8_t *interior;
+    /* what each thread keeps while it runs regions (MAX_THREADS of them),
+     * and region_partition's cell keys and sort scratch: kept from round to
+     * round of a level, so that a round does not fault them in anew, and
+     * freed after the level's rounds (region_scratch_free) */
+    struct region_thread *region_threads;
+    uint64_t *region_key;
+    radix_scratch region_sort;
     uint32_t region_vertices; /* vertices per region: 0 for REGION_SIZE */
     uint32_t rounds;          /* region rounds run so far (all levels) */
     registry reg;
@@ -2155,8 +2164,7 @@ static long grid_fill(const sim *s, facegrid *g, const uint32_t *faces, size_t n
     const double factor = local ? 3.0 : alive == s->nf ? 4.0 : 2.0;
     double cell = alive ? factor * extent / alive : 1.0;
     if (!(cell > 0.0) || !isfinite(cell)) cell = 1.0;
-    facegrid_free(g);
-    if (facegrid_init(g, cell, capacity) != FACEGRID_OK) return -1;
+    if (facegrid_reset(g, cell, capacity) != FACEGRID_OK) return -1;
     for (size_t i = 0; i < n; ++i) {
         const uint32_t f = faces ? faces[i] : (uint32_t)i;
         if (!s->face_alive[f]) continue;
@@ -2430,7 +2438,8 @@ static long region_partition(sim *s, region **regions, uint32_t size, int shifte
             lo[a] = geom_fmin(lo[a], s->positions[3 * (size_t)s->spatial[i] + a]);
             hi[a] = geom_fmax(hi[a], s->positions[3 * (size_t)s->spatial[i] + a]);
         }
-    uint64_t *key = malloc(((size_t)n + 1) * sizeof *key);
+    if (!s->region_key) s->region_key = malloc(((size_t)s->nv + 1) * sizeof *s->region_key);
+    uint64_t *key = s->region_key;
     if (!key) return -1;
     double extent = 0.0;
     for (int a = 0; a < 3; ++a) extent = geom_fmax(extent, hi[a] - lo[a]);
@@ -2444,10 +2453,7 @@ static long region_partition(sim *s, region **regions, uint32_t size, int shifte
         cell = extent / 32.0;
         for (int tries = 0; tries < 4; ++tries) {
             const uint64_t max_key = cell_keys(s, n, lo, hi, cell, 0, key);
-            if (radix_sort_u64(key, s->spatial, n, max_key)) {
-                free(key);
-                return -1;
-            }
+            if (radix_sort_u64_with(key, s->spatial, n, max_key, &s->region_sort)) return -1;
             uint32_t cells = n ? 1 : 0;
             for (uint32_t i = 1; i < n; ++i) cells += key[i] != key[i - 1];
             const double mean = cells ? (double)n / cells : 1.0;
@@ -2463,14 +2469,11 @@ static long region_partition(sim *s, region **regions, uint32_t size, int shifte
     const uint64_t max_key = cell_keys(s, n, lo, hi, cell, shifted, key);
     uint32_t parts = n ? 1 : 0;
     region *r = NULL;
-    if (!radix_sort_u64(key, s->spatial, n, max_key)) {
+    if (!radix_sort_u64_with(key, s->spatial, n, max_key, &s->region_sort)) {
         for (uint32_t i = 1; i < n; ++i) parts += key[i] != key[i - 1];
         r = calloc((size_t)parts + 1, sizeof *r);
     }
-    if (!r) {
-        free(key);
-        return -1;
-    }
+    if (!r) return -1;
     uint32_t k = 0;
     for (uint32_t i = 0; i < n; ++i) {
         if (i > 0 && key[i] != key[i - 1]) {
@@ -2481,7 +2484,6 @@ static long region_partition(sim *s, region **regions, uint32_t size, int shifte
         s->region_of[s->spatial[i]] = k;
     }
     if (n) r[k].end = n;
-    free(key);
     for (uint32_t f = 0; f < s->nf; ++f) {
         if (!s->face_alive[f]) continue;
         const uint32_t *cv = s->corner_vertex + 3 * (size_t)f, a = s->region_of[cv[0]];
@@ -2781,31 +2783,29 @@ static long region_round(sim *s)
     /* the invariant checker reads the whole mesh: one thread then (the
      * same result) */
     const uint32_t threads = s->verify ? 1 : s->thread_count;
-    region_thread rt[MAX_THREADS];
-    memset(rt, 0, sizeof rt);
-    /* the faces no region owns stay as they are this round */
-    facegrid shared;
-    memset(&shared, 0, sizeof shared);
+    region_thread *rt = s->region_threads;
+    /* the faces no region owns stay as they are this round; their grid is
+     * the level's (grid_current is 0 during the rounds, and region_phase
+     * rebuilds it after them) */
+    facegrid *shared = &s->grid;
     u32vec shared_faces = {0};
     int oom = 0;
     for (uint32_t f = 0; f < s->nf && !oom; ++f)
         if (s->face_alive[f] && s->face_owner[f] == REGION_SHARED) oom = u32_push(&shared_faces, f);
-    if (!oom) oom = grid_fill(s, &shared, shared_faces.data, shared_faces.size, 0, s->nf, NULL) < 0;
+    if (!oom) oom = grid_fill(s, shared, shared_faces.data, shared_faces.size, 0, s->nf, NULL) < 0;
     free(shared_faces.data);
     if (oom) {
-        facegrid_free(&shared);
         free(regions);
         return s->serial.oom = 1, -1;
     }
     uint32_t *order = malloc(((size_t)parts + 1) * sizeof *order);
     if (!order) {
-        facegrid_free(&shared);
         free(regions);
         return s->serial.oom = 1, -1;
     }
     for (long k = 0; k < parts; ++k) {
         regions[k].clock = s->commit_clock;
-        regions[k].shared = &shared;
+        regions[k].shared = shared;
         /* by size, larger first (insertion: a few hundred regions) */
         long at = k;
         for (; at > 0 && regions[order[at - 1]].end - regions[order[at - 1]].begin < regions[k].end - regions[k].begin;
@@ -2816,7 +2816,6 @@ static long region_round(sim *s)
     region_job job = {s, regions, order, (uint32_t)parts, 0, rt};
     atomic_init(&job.next, 0);
     if (thin_ready(s)) {
-        facegrid_free(&shared);
         free(order);
         free(regions);
         return s->serial.oom = 1, -1;
@@ -2843,18 +2842,31 @@ static long region_round(sim *s)
         st->region_commits += rg->stats.commits;
     }
     s->commit_clock = clock;
-    facegrid_free(&shared);
     free(order);
     /* the deferred ones are candidates again in the next round */
     for (uint32_t t = 0; t < threads; ++t) {
         for (size_t i = 0; i < rt[t].deferred.size; ++i) s->reject_stamp[rt[t].deferred.data[i]] = NONE;
-        region_thread_free(&rt[t]);
+        rt[t].deferred.size = 0;
     }
     free(regions);
     s->rounds++;
     st->rounds++;
     st->seconds_regions += lp_seconds() - t0;
     return failed ? -1 : commits;
+}
+
+/* Frees what the rounds kept from one to the next (their threads' grids and
+ * queues, the partition's keys and sort scratch): the passes that follow
+ * then reuse that memory instead of the peak growing by it. */
+static void region_scratch_free(sim *s)
+{
+    if (s->region_threads)
+        for (uint32_t t = 0; t < MAX_THREADS; ++t) region_thread_free(&s->region_threads[t]);
+    free(s->region_threads);
+    s->region_threads = NULL;
+    free(s->region_key);
+    s->region_key = NULL;
+    radix_scratch_free(&s->region_sort);
 }
 
 /* The region phase of a level: rounds while there are enough vertices for
@@ -2874,6 +2886,8 @@ static int region_phase(sim *s)
         for (uint32_t v = 0; v < s->nv; ++v) s->spatial[v] = v;
         s->spatial_count = s->nv;
     }
+    if (!s->region_threads) s->region_threads = calloc(MAX_THREADS, sizeof *s->region_threads);
+    if (!s->region_threads) return s->serial.oom = 1, -1;
     const uint32_t size = s->region_vertices ? s->region_vertices : REGION_SIZE, rounds_before = s->rounds;
     for (;;) {
         uint32_t alive = 0;
@@ -2883,6 +2897,7 @@ static int region_phase(sim *s)
         if (commits < 0) return -1;
         if ((uint64_t)commits * REGION_STOP < alive) break;
     }
+    region_scratch_free(s);
     /* the global passes' grid, for the faces as they are now */
     if (s->rounds != rounds_before && grid_rebuild(s)) return s->serial.oom = 1, -1;
     return 0;
@@ -3264,6 +3279,7 @@ static void sim_free(sim *s)
     free(s->interior);
     free(s->queued);
     free(s->queued_to);
+    region_scratch_free(s);
     free(s->change_stamp);
     free(s->reject_stamp);
     free(s->removal_stamp);

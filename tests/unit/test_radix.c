@@ -26,6 +26,9 @@ static int by_key_then_value(const void *a, const void *b)
     return x->value < y->value ? -1 : x->value > y->value;
 }
 
+static radix_scratch kept; /* shared by every sort of test_kept_scratch */
+static int use_kept;
+
 static void check_against_qsort(size_t n, uint64_t max_key, int with_values)
 {
     uint64_t *key = malloc((n + 1) * sizeof *key);
@@ -37,7 +40,9 @@ static void check_against_qsort(size_t n, uint64_t max_key, int with_values)
         value[i] = (uint32_t)i;
         ref[i] = (pair){key[i], (uint32_t)i};
     }
-    CHECK(radix_sort_u64(key, with_values ? value : NULL, n, max_key) == 0, "n %zu: sort failed", n);
+    CHECK((use_kept ? radix_sort_u64_with(key, with_values ? value : NULL, n, max_key, &kept)
+                    : radix_sort_u64(key, with_values ? value : NULL, n, max_key)) == 0,
+          "n %zu: sort failed", n);
     qsort(ref, n, sizeof *ref, by_key_then_value);
     size_t bad = 0;
     for (size_t i = 0; i < n; ++i) bad += key[i] != ref[i].key || (with_values && value[i] != ref[i].value);
@@ -60,8 +65,22 @@ static void test_orders(void)
         }
 }
 
+/* the same orders with one scratch kept across sorts of growing and
+ * shrinking sizes, with and without values (radix_sort_u64_with) */
+static void test_kept_scratch(void)
+{
+    use_kept = 1;
+    test_orders();
+    check_against_qsort(300000, 1000003, 1);
+    check_against_qsort(50, 1000003, 1);
+    use_kept = 0;
+    radix_scratch_free(&kept);
+    CHECK(kept.key == NULL && kept.value == NULL && kept.count == NULL, "freed scratch is empty");
+}
+
 int main(void)
 {
     RUN(test_orders);
+    RUN(test_kept_scratch);
     return check_summary();
 }
