@@ -2081,7 +2081,7 @@ static void process_batch(sim *s, candidate *batch, size_t count, long *commits)
 /* Registers whole every cluster that one face now holds, among those whose
  * originals were re-registered since the last try (cluster_dirty): the faces
  * tried are the ones its originals are registered to. Serial, between
- * batches. Returns 0, or -1 (out of memory, or a broken invariant). */
+ * batches, or in a round beside region_partition. Returns 0, or -1 (out of memory, or a broken invariant). */
 static int merge_clusters(sim *s)
 {
     scratch *sc = &s->serial;
@@ -2768,6 +2768,19 @@ static void region_worker(void *p, uint32_t thread)
     }
 }
 
+typedef struct merge_run {
+    sim *s;
+    int rc;
+} merge_run;
+
+/* merge_clusters as an lp_beside function */
+static void *merge_clusters_run(void *p)
+{
+    merge_run *m = p;
+    m->rc = merge_clusters(m->s);
+    return NULL;
+}
+
 /* One round: partition, the regions on all cores (the largest first, for
  * the balance: the order changes nothing else), then their results gathered
  * in region order. Returns the commits, or -1 on failure (out of memory, or
@@ -2775,10 +2788,22 @@ static void region_worker(void *p, uint32_t thread)
 static long region_round(sim *s)
 {
     const double t0 = lp_seconds();
-    if (merge_clusters(s)) return -1;
+    /* the merges beside the partition: they share nothing (merge_clusters
+     * writes the registry, unit bounds, stats and the serial scratch, none
+     * of which region_partition reads; the partition writes the region
+     * fields, which the merges do not read), so either order gives the same
+     * state */
+    merge_run merge = {s, 0};
+    lp_beside beside;
+    lp_beside_start(&beside, s->thread_count > 1 && !s->verify, merge_clusters_run, &merge);
     const uint32_t size = s->region_vertices ? s->region_vertices : REGION_SIZE;
     region *regions = NULL;
     const long parts = region_partition(s, &regions, size, (int)(s->rounds % 2));
+    lp_beside_join(&beside);
+    if (merge.rc) {
+        free(regions);
+        return -1;
+    }
     if (parts < 0) return s->serial.oom = 1, -1;
     /* the invariant checker reads the whole mesh: one thread then (the
      * same result) */
