@@ -916,21 +916,29 @@ static void box_add(double lo[3], double hi[3], const double p[3])
     }
 }
 
-/* 1 when the collapse (u's faces in sc->faces_u, v's in sc->faces_v when v
- * moves) must be tested for self-intersections: strict mode, or the original
- * is thin (thin.h) near the new star, whose box is within that of u's ring
- * (and v's ring and new place when v moves). */
+/* 1 when the collapse (u's faces in sc->faces_u, their neighbour table in
+ * sc->nb, v's faces in sc->faces_v when v moves) must be tested for
+ * self-intersections: strict mode, or the original is thin (thin.h) near the
+ * new star, whose box is within that of u's ring (and v's ring and new place
+ * when v moves). */
 static int star_is_thin(const sim *s, const scratch *sc, const collapse *cl)
 {
     if (s->strict) return 1;
     double p[3], lo[3], hi[3];
     vertex_position(s, cl->v, p);
     for (int a = 0; a < 3; ++a) lo[a] = hi[a] = p[a];
-    for (size_t i = 0; i < sc->faces_u.size; ++i)
-        for (int k = 0; k < 3; ++k) {
-            vertex_position(s, s->corner_vertex[3 * sc->faces_u.data[i] + k], p);
-            box_add(lo, hi, p);
-        }
+    /* the corners of u's faces are u and its neighbours (classify_neighbours
+     * listed each once: the next and previous corner of every face): each
+     * point once instead of once per face it is in. The box is the same:
+     * geom_fmin/fmax skip NaN whatever the order, and a min or max of the same
+     * points in another order differs at most in the sign of a zero, which
+     * thin_map_box's floor(x * inv_cell) does not see */
+    vertex_position(s, cl->u, p);
+    box_add(lo, hi, p);
+    for (size_t i = 0; i < sc->nb_size; ++i) {
+        vertex_position(s, sc->nb[i].x, p);
+        box_add(lo, hi, p);
+    }
     if (cl->moved) {
         box_add(lo, hi, cl->place);
         for (size_t i = 0; i < sc->faces_v.size; ++i)
