@@ -1565,9 +1565,16 @@ static int commit(sim *s, const candidate *c, const committer *cm)
             if (s->unit_stamp[rec.units[(size_t)i * UNIT_RECORD]] == s->batch_stamp) return 0;
 
     scratch *sc = cm->sc;
-    if (gather_faces(s, u, &sc->faces_u)) return sc->oom = 1, 0;
-    if (cl.moved && gather_faces(s, v, &sc->faces_v)) return sc->oom = 1, 0;
-    if (gather_changed(s, sc, &cl)) return sc->oom = 1, 0;
+    /* In a region the candidate was evaluated just now, on this scratch, and
+     * nothing changed the mesh since: sc->faces_u (gathered first), faces_v
+     * (by link_ok for the accepted target) and changed (by gather_changed
+     * for the accepted try, the last one) are the lists gathering again
+     * would give, in the same order. */
+    if (!cm->rg) {
+        if (gather_faces(s, u, &sc->faces_u)) return sc->oom = 1, 0;
+        if (cl.moved && gather_faces(s, v, &sc->faces_v)) return sc->oom = 1, 0;
+        if (gather_changed(s, sc, &cl)) return sc->oom = 1, 0;
+    }
     /* faces committed earlier in this batch were not there when the candidate
      * was tested for crossings (its star and the thin map are as they were) */
     if (!cm->rg && c->thin && crosses_batch(s, sc, &cl)) return 0;
