@@ -441,9 +441,10 @@ static int classify_neighbours(const sim *s, scratch *sc, uint32_t u)
         for (uint32_t j = 0; j < nclass; ++j) known |= classes[j] == cls;
         if (!known && nclass < 3) classes[nclass++] = cls;
         uint32_t next = s->corner_vertex[3 * f + (k + 1) % 3], prev = s->corner_vertex[3 * f + (k + 2) % 3];
+        /* room for both first: then b's insertion cannot move a */
+        if (sc->nb_size + 2 > sc->nb_cap && grow((void **)&sc->nb, &sc->nb_cap, sc->nb_size + 2, sizeof *sc->nb))
+            return -1;
         neighbour *a = find_or_add(sc, next), *b = find_or_add(sc, prev);
-        if (!a || !b) return -1;
-        a = find_or_add(sc, next); /* b's insertion may have moved the array */
         if (a->count < 2) a->face[a->count] = f;
         a->count++;
         a->forward++;
