@@ -459,10 +459,18 @@ size_t bvh_memory_bytes(const bvh *tree)
 
 /* ---- queries -------------------------------------------------------------- */
 
-/* How far x lies outside [lo, hi] (0 inside), in double. */
+/* How far x lies outside [lo, hi] (0 inside), in double, up to the sign,
+ * for lo <= hi (a box of finite floats) and finite x: x minus x clamped to
+ * the box. The clamp is one max and one min, which compilers emit without
+ * branches (the side of a box a query point lies on is hardly predictable);
+ * the value is x - lo = -(lo - x) exactly (rounding is symmetric) when
+ * x < lo, x - hi when x > hi and 0 inside, so its square is bit for bit the
+ * square of the distance to the box along that axis, as before. */
 static inline double gap_outside(double x, double lo, double hi)
 {
-    return x < lo ? lo - x : x > hi ? x - hi : 0.0;
+    double clamped = x > lo ? x : lo;
+    clamped = clamped < hi ? clamped : hi;
+    return x - clamped;
 }
 
 /* Squared distance from p to the node's box, computed in double (0 inside). */
