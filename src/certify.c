@@ -278,8 +278,7 @@ void cert_face_normal(cert_tri *f)
     geom_triangle_box((const double(*)[3])f->p, f->lo, f->hi);
 }
 
-/* Squared distance from p to the box of f: a lower bound of d(p, f)^2. */
-static double box_distance2(const cert_tri *f, const vec3d *p)
+double cert_tri_box_distance2(const cert_tri *f, const vec3d *p)
 {
     const double q[3] = {p->x, p->y, p->z};
     double d2 = 0.0;
@@ -659,7 +658,7 @@ static int use_face(cover_state *s, uint32_t id, double value)
 static double corners_within(const cert_tri *f, const vec3d p[3], const vec3d *centre, double radius, double accept)
 {
     double reach = accept + radius;
-    if (box_distance2(f, centre) > reach * reach) return INFINITY;
+    if (cert_tri_box_distance2(f, centre) > reach * reach) return INFINITY;
     vec3d tri[3];
     for (int k = 0; k < 3; ++k) tri[k] = geom_vec3d_from_doubles(f->p[k]);
     return max_corner_distance(p, tri, accept);
@@ -706,7 +705,7 @@ static int overlay_b(cover_state *s, const vec3d p[3])
         const cert_tri *f = &s->faces[i];
         value[i] = INFINITY;
         const double reach = s->accept + r;
-        if (!face_may_witness(s, f) || box_distance2(f, &c) > reach * reach) continue;
+        if (!face_may_witness(s, f) || cert_tri_box_distance2(f, &c) > reach * reach) continue;
         vec3d w[3];
         for (int k = 0; k < 3; ++k) w[k] = geom_vec3d_from_doubles(f->p[k]);
         double m;
@@ -762,7 +761,7 @@ static int piece_b(cover_state *s, const vec3d p[3], int depth)
     uint32_t best_id = 0;
     for (uint32_t i = 0; i < s->count; ++i) {
         const cert_tri *f = &s->faces[i];
-        if (!face_may_witness(s, f) || box_distance2(f, &c) >= best * best) continue;
+        if (!face_may_witness(s, f) || cert_tri_box_distance2(f, &c) >= best * best) continue;
         vec3d tri[3];
         for (int k = 0; k < 3; ++k) tri[k] = geom_vec3d_from_doubles(f->p[k]);
         double d = sqrt(geom_point_triangle_distance2(&c, &tri[0], &tri[1], &tri[2], NULL));
@@ -817,7 +816,7 @@ static double cluster_within(const cert_original *o, uint32_t cluster, const cer
     if (!(c->axis[0] * f->n[0] + c->axis[1] * f->n[1] + c->axis[2] * f->n[2] > c->cone_sin)) return INFINITY;
     const vec3d centre = {c->centre[0], c->centre[1], c->centre[2]};
     const double reach = accept + c->radius;
-    if (box_distance2(f, &centre) > reach * reach) return INFINITY; /* then every vertex is beyond accept */
+    if (cert_tri_box_distance2(f, &centre) > reach * reach) return INFINITY; /* then every vertex is beyond accept */
     vec3d tri[3];
     for (int k = 0; k < 3; ++k) tri[k] = geom_vec3d_from_doubles(f->p[k]);
     geom_prepared_triangle face; /* measured from the centre and up to every vertex */

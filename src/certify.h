@@ -34,6 +34,7 @@
 #include <stdint.h>
 
 #include "bvh.h"
+#include "geom.h"
 
 /* Depth 6 (up to 4^6 pieces) rather than 4: a placed or creased level often
  * lies near eps from the original along a fold, and only smaller pieces find a
@@ -99,6 +100,10 @@ typedef struct cert_tri {
 
 /* Fills n, degenerate and the box from p. */
 void cert_face_normal(cert_tri *f);
+
+/* Squared distance from p to the box of f (set): a lower bound of
+ * d(p, F)^2, the one the tests below prune with. */
+double cert_tri_box_distance2(const cert_tri *f, const vec3d *p);
 
 /* (a): 1 when F is certified within eps of O, with *bound the largest
  * accepted value; 0 otherwise. A degenerate F is never certified. First,

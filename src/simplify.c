@@ -339,10 +339,10 @@ typedef struct sim {
     uint8_t *special; /* border or locked vertices */
     int strict;
     double eps, flip_cos;
-    /* the largest original coordinate's magnitude, and 1e-6 of it plus eps:
+    /* the largest original coordinate's magnitude: 1e-6 of it plus eps is
      * the rounding allowance of certify_change's early rejection
      * (cover_doomed) */
-    double extent, far_slack;
+    double extent;
     int verify;
     uint32_t level;
     uint32_t thread_count;
@@ -988,13 +988,7 @@ static int prepare_candidates(const sim *s, scratch *sc, const collapse *cl, siz
  * box set): the box first, a lower bound on the distance to the triangle. */
 static int beyond_face(const vec3d *p, const cert_tri *f, double reach2)
 {
-    const double q[3] = {p->x, p->y, p->z};
-    double d2 = 0.0;
-    for (int a = 0; a < 3; ++a) {
-        const double d = q[a] < f->lo[a] ? f->lo[a] - q[a] : (q[a] > f->hi[a] ? q[a] - f->hi[a] : 0.0);
-        d2 += d * d;
-    }
-    if (d2 > reach2) return 1;
+    if (cert_tri_box_distance2(f, p) > reach2) return 1;
     vec3d w[3];
     for (int k = 0; k < 3; ++k) w[k] = geom_vec3d_from_doubles(f->p[k]);
     return geom_point_triangle_distance2(p, &w[0], &w[1], &w[2], NULL) > reach2;
@@ -1039,7 +1033,7 @@ static int beyond_face(const vec3d *p, const cert_tri *f, double reach2)
  * an acceptance means u within accept + a few ulps of m of the witness. The
  * distances measured here overestimate by at most ~sqrt(ulp) * 4 m (geom.h's
  * thin case, ~6e-8 m), and the box test's rounding is relative, a few ulps.
- * Reach is accept + s->far_slack (1e-6 m), far above both: a face beyond
+ * Reach is accept + far_slack (1e-6 m), far above both: a face beyond
  * reach here is beyond accept for the loop. */
 static int cover_doomed(const sim *s, scratch *sc, const collapse *cl, size_t star_faces, size_t *prepared)
 {
@@ -1053,7 +1047,8 @@ static int cover_doomed(const sim *s, scratch *sc, const collapse *cl, size_t st
     if (!held) return 0;
     if (prepare_candidates(s, sc, cl, prepared)) return -1;
     const vec3d p = geom_vec3d_from_floats(o->positions + 3 * (size_t)u);
-    const double reach = s->eps * (1.0 - CERT_MARGIN) + s->far_slack, reach2 = reach * reach;
+    const double far_slack = 1e-6 * (s->extent + s->eps);
+    const double reach = s->eps * (1.0 - CERT_MARGIN) + far_slack, reach2 = reach * reach;
     for (size_t i = 0; i < sc->cand_faces.size; ++i)
         if (!beyond_face(&p, &sc->tris[i], reach2)) return 0;
     /* the 2-ring, as the loop's widening walks it */
@@ -3617,7 +3612,6 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
         s->full_edge = 0;
         s->stats = &level->stats;
         s->eps = options->fractions[k] * out->diagonal;
-        s->far_slack = 1e-6 * (s->extent + s->eps);
         level->eps = s->eps;
         memset(s->reject_stamp, 0xff, (size_t)w->vertex_count * sizeof *s->reject_stamp);
         if (s->removal_stamp) memset(s->removal_stamp, 0xff, (size_t)w->vertex_count * sizeof *s->removal_stamp);
