@@ -32,7 +32,7 @@ static void warn(lodchain_summary *out, const char *fmt, ...)
 uint32_t lodchain_kept_levels(const weld_result *w, const simplify_result *r, double min_reduction,
                               uint32_t kept[SIMPLIFY_MAX_LEVELS])
 {
-    uint32_t n = 0, previous = w->triangle_count + w->dangling_count; /* level 0, as the levels count */
+    uint32_t n = 0, previous = weld_level0_triangles(w); /* level 0, as the levels count */
     for (uint32_t k = 0; k < r->level_count; ++k) {
         uint32_t t = r->levels[k].triangle_count;
         if (t == 0 || (double)t > (1.0 - min_reduction) * previous) continue;

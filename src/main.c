@@ -469,9 +469,10 @@ static void obj_vertex_lines_free(obj_vertex_lines *l)
 
 /* One level as OBJ, staged in set: the mesh's welded vertices (shared by all levels; at
  * `positions` when a level placed vertices, else the weld's) and the level's
- * faces: face_wedges (a level's, the weld's dangling triangles included), or
- * face_vertices (level 0: the weld's triangles), then the weld's dangling
- * triangles. A vertex at the weld's position reuses its formatted line. */
+ * faces: face_wedges (a level's, its back faces and the weld's dangling
+ * triangles included), or face_vertices (level 0: the weld's triangles), then
+ * the weld's backs and dangling triangles. A vertex at the weld's position
+ * reuses its formatted line. */
 static int write_obj(output_set *set, const char *path, const weld_result *w, const obj_vertex_lines *lines, const float *positions,
                      const uint32_t *face_vertices, uint32_t face_count, const uint32_t *face_wedges)
 {
@@ -492,13 +493,15 @@ static int write_obj(output_set *set, const char *path, const weld_result *w, co
         size_t n = lines->line[v + 1] - lines->line[v];
         bad = fwrite(lines->text + lines->line[v], 1, n, f) != n;
     }
-    const uint32_t total = face_count + (face_vertices ? w->dangling_count : 0);
+    const uint32_t total = face_count + (face_vertices ? w->back_count + w->dangling_count : 0);
     for (uint32_t t = 0; t < total && !bad; ++t) {
         uint32_t corner[3];
+        const uint32_t back = t - face_count, dangling = back - w->back_count;
         for (int k = 0; k < 3; ++k)
-            corner[k] = !face_vertices ? w->wedge_vertex[face_wedges[3 * (size_t)t + k]]
-                        : t < face_count ? face_vertices[3 * (size_t)t + k]
-                                         : w->dangling_vertices[3 * (size_t)(t - face_count) + k];
+            corner[k] = !face_vertices     ? w->wedge_vertex[face_wedges[3 * (size_t)t + k]]
+                        : t < face_count   ? face_vertices[3 * (size_t)t + k]
+                        : back < w->back_count ? w->wedge_vertex[w->back_wedges[3 * (size_t)back + k]]
+                                               : w->dangling_vertices[3 * (size_t)dangling + k];
         /* "f a b c\n", 1-based, formatted by hand (fprintf was most of the
          * time of writing a large level 0) */
         char line[40], *at = line;
@@ -630,9 +633,10 @@ static int cmd_simplify(const cli *c)
             fprintf(j, "%s{\"mesh\":%u,\"name\":", first ? "" : ",", m);
             json_string(j, mesh->name);
             fprintf(j, ",\"diagonal\":%.17g,\"triangles\":%u,\"weld\":{\"vertices\":%u,\"locked\":%u,\"degenerate_dropped\":%u,"
-                       "\"degenerate_dangling\":%u},\"seconds_weld\":%.6f,\"seconds_setup\":%.6f,\"levels\":[",
-                    r.diagonal, w.triangle_count + w.dangling_count, w.vertex_count, w.stats.vertices_by_kind[WELD_LOCKED],
-                    w.stats.degenerate_triangles, w.stats.degenerate_dangling, r.seconds_weld, r.seconds_setup);
+                       "\"degenerate_dangling\":%u,\"back_faces\":%u},\"seconds_weld\":%.6f,\"seconds_setup\":%.6f,\"levels\":[",
+                    r.diagonal, weld_level0_triangles(&w), w.vertex_count, w.stats.vertices_by_kind[WELD_LOCKED],
+                    w.stats.degenerate_triangles, w.stats.degenerate_dangling, w.back_count, r.seconds_weld,
+                    r.seconds_setup);
             if (w.dangling_count && !c->quiet) warn_dangling(in, m, w.dangling_count);
             for (uint32_t k = 0; k < r.level_count; ++k) {
                 const simplify_level *l = &r.levels[k];
@@ -646,7 +650,7 @@ static int cmd_simplify(const cli *c)
             if (!c->quiet && isatty(STDERR_FILENO))
                 for (uint32_t k = 0; k < r.level_count; ++k)
                     lp_say("%s: mesh %u level %u: %u -> %u triangles, bound %.4g%% of diagonal (%.2f s)",
-                            in, m, k + 1, w.triangle_count + w.dangling_count, r.levels[k].triangle_count,
+                            in, m, k + 1, weld_level0_triangles(&w), r.levels[k].triangle_count,
                             r.diagonal > 0 ? 100.0 * r.levels[k].bound / r.diagonal : 0.0, r.levels[k].stats.seconds);
         }
         simplify_result_free(&r);

@@ -456,7 +456,7 @@ static void mesh_bounds(scene_mesh *m)
 static int compare_triangle_keys(const void *a, const void *b)
 {
     const uint32_t *x = a, *y = b;
-    for (int k = 0; k < 3; ++k)
+    for (int k = 0; k < 4; ++k) /* sorted corners, then the winding */
         if (x[k] != y[k]) return x[k] < y[k] ? -1 : 1;
     return 0;
 }
@@ -472,46 +472,80 @@ static void sort3(uint32_t k[3])
             }
 }
 
+/* The parity of the permutation that sorts a triangle's corners: a
+ * rotation keeps it, a reversal of the winding flips it (equal corners: 0). */
+static uint32_t winding_parity(const uint32_t *v)
+{
+    return ((uint32_t)(v[0] > v[1]) + (uint32_t)(v[0] > v[2]) + (uint32_t)(v[1] > v[2])) & 1u;
+}
+
+/* Repeats among triangles sorted by corners, then winding: over each run
+ * with the same corners, n0 and n1 of the two windings, the ones beyond the
+ * first of their winding count as same and min(n0, n1) as reversed. */
+typedef struct repeat_counts {
+    uint32_t same, reversed;
+} repeat_counts;
+
+static void count_run(repeat_counts *c, uint32_t n0, uint32_t n1)
+{
+    c->same += (n0 ? n0 - 1 : 0) + (n1 ? n1 - 1 : 0);
+    c->reversed += n0 < n1 ? n0 : n1;
+}
+
 /* duplicate_triangles when every vertex number fits 21 bits: each triangle's
- * sorted corners packed in one 64-bit key, the keys sorted by radix (glibc's
- * qsort with a comparison function was about 0.4 s of loading a
- * 1.1M-triangle mesh). Returns 0 when the scratch cannot be allocated. */
-static uint32_t duplicate_triangles_packed(const scene_primitive *p)
+ * sorted corners and winding packed in one 64-bit key, the keys sorted by
+ * radix (glibc's qsort with a comparison function was about 0.4 s of loading
+ * a 1.1M-triangle mesh). Returns 0 when the scratch cannot be allocated. */
+static int duplicate_triangles_packed(const scene_primitive *p, repeat_counts *c)
 {
     const uint32_t n = p->triangle_count;
     uint64_t *key = malloc(((size_t)n + 1) * sizeof *key);
-    uint32_t duplicates = 0;
-    if (!key) return 0;
+    if (!key) return -1;
     for (uint32_t t = 0; t < n; ++t) {
         uint32_t k[3];
         memcpy(k, p->triangles + 3 * (size_t)t, sizeof k);
+        const uint32_t parity = winding_parity(k);
         sort3(k);
-        key[t] = (uint64_t)k[0] << 42 | (uint64_t)k[1] << 21 | k[2];
+        key[t] = (uint64_t)k[0] << 43 | (uint64_t)k[1] << 22 | (uint64_t)k[2] << 1 | parity;
     }
-    if (!radix_sort_u64(key, NULL, n, UINT64_MAX >> 1))
-        for (uint32_t t = 1; t < n; ++t) duplicates += key[t] == key[t - 1];
+    const int rc = radix_sort_u64(key, NULL, n, UINT64_MAX);
+    for (uint32_t t = 0; !rc && t < n;) {
+        uint32_t runs[2] = {0, 0}, end = t;
+        for (; end < n && key[end] >> 1 == key[t] >> 1; ++end) runs[key[end] & 1u]++;
+        count_run(c, runs[0], runs[1]);
+        t = end;
+    }
     free(key);
-    return duplicates;
+    return rc;
 }
 
-/* Triangles of a primitive that use the same three vertices as an earlier one
- * (in any order or winding); 0 when the scratch cannot be allocated. */
-static uint32_t duplicate_triangles(const scene_primitive *p)
+/* Triangles of a primitive that use the same three vertices as an earlier
+ * one: in the same winding (c->same), or in the other (c->reversed: a back,
+ * weld.h, which each level keeps as a side of its own). Nothing is counted
+ * when the scratch cannot be allocated. */
+static void duplicate_triangles(const scene_primitive *p, repeat_counts *c)
 {
-    if (p->vertex_count <= (1u << 21)) return duplicate_triangles_packed(p);
-    uint32_t *keys = malloc(((size_t)p->triangle_count + 1) * 3 * sizeof *keys);
-    if (!keys) return 0;
+    if (p->vertex_count <= (1u << 21)) {
+        duplicate_triangles_packed(p, c);
+        return;
+    }
+    uint32_t *keys = malloc(((size_t)p->triangle_count + 1) * 4 * sizeof *keys);
+    if (!keys) return;
     for (uint32_t t = 0; t < p->triangle_count; ++t) {
-        uint32_t *key = keys + 3 * (size_t)t;
+        uint32_t *key = keys + 4 * (size_t)t;
         memcpy(key, p->triangles + 3 * (size_t)t, 3 * sizeof *key);
+        key[3] = winding_parity(key);
         sort3(key);
     }
-    qsort(keys, p->triangle_count, 3 * sizeof *keys, compare_triangle_keys);
-    uint32_t duplicates = 0;
-    for (uint32_t t = 1; t < p->triangle_count; ++t)
-        if (compare_triangle_keys(keys + 3 * (size_t)t, keys + 3 * (size_t)(t - 1)) == 0) duplicates++;
+    qsort(keys, p->triangle_count, 4 * sizeof *keys, compare_triangle_keys);
+    for (uint32_t t = 0; t < p->triangle_count;) {
+        uint32_t runs[2] = {0, 0}, end = t;
+        for (; end < p->triangle_count && memcmp(keys + 4 * (size_t)end, keys + 4 * (size_t)t, 3 * sizeof *keys) == 0; ++end)
+            runs[keys[4 * (size_t)end + 3]]++;
+        count_run(c, runs[0], runs[1]);
+        t = end;
+    }
     free(keys);
-    return duplicates;
 }
 
 static int zero_area(const float *positions, const uint32_t *tri)
@@ -568,13 +602,17 @@ static void warn_degenerate(scene *s, uint32_t m)
                  acc.has_sparse && acc.buffer_view >= 0))
                 unused = 0;
         }
-        uint32_t duplicates = duplicate_triangles(p);
+        repeat_counts repeats = {0, 0};
+        duplicate_triangles(p, &repeats);
         if (flat)
             warn(s, "meshes[%u].primitives[%u]: %u of %u triangles have no area (kept in LOD0; levels may drop them)",
                  m, pi, flat, p->triangle_count);
-        if (duplicates)
+        if (repeats.same)
             warn(s, "meshes[%u].primitives[%u]: %u triangles repeat the vertices of another (kept in LOD0)", m, pi,
-                 duplicates);
+                 repeats.same);
+        if (repeats.reversed)
+            warn(s, "meshes[%u].primitives[%u]: %u triangles repeat the vertices of another in the opposite winding "
+                    "(a back side: kept in LOD0 and at every level)", m, pi, repeats.reversed);
         if (unused)
             warn(s, "meshes[%u].primitives[%u]: %u of %u vertices are used by no triangle (ignored for the bounds)",
                  m, pi, unused, p->vertex_count);

@@ -3359,6 +3359,55 @@ static int scratch_init(scratch *sc, uint32_t nv)
     return sc->vertex_seen ? 0 : -1;
 }
 
+static int compare_u64(const void *a, const void *b)
+{
+    const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* The certification group of a face with a back (weld.h): one per (front
+ * material, back material), numbered -2, -3, ... in the order of those pairs,
+ * so that no group is a material's (>= -1) or CERT_MIXED. A face with a back
+ * is then certified only against originals with a back of the same two
+ * materials, and what holds for it holds, mirrored, for its back face.
+ * Faces without a back keep their material. Returns 0, or -1 (memory). */
+static int back_groups(sim *s, const weld_result *w, const int64_t *primitive_material)
+{
+    const uint32_t nf = w->triangle_count;
+    uint64_t *pair = malloc(((size_t)nf + 1) * sizeof *pair), *distinct = malloc(((size_t)nf + 1) * sizeof *distinct);
+    if (!pair || !distinct) {
+        free(pair);
+        free(distinct);
+        return -1;
+    }
+    size_t n = 0;
+    for (uint32_t f = 0; f < nf; ++f) {
+        const uint32_t b = w->triangle_back[f];
+        if (b == WELD_NO_BACK) continue;
+        const int64_t back = primitive_material[w->back_primitive[b]];
+        const int32_t back_material = back < 0 ? -1 : (int32_t)(back > INT32_MAX ? INT32_MAX : back);
+        pair[f] = (uint64_t)(uint32_t)s->face_material[f] << 32 | (uint32_t)back_material;
+        distinct[n++] = pair[f];
+    }
+    qsort(distinct, n, sizeof *distinct, compare_u64);
+    size_t groups = 0;
+    for (size_t i = 0; i < n; ++i)
+        if (!groups || distinct[i] != distinct[groups - 1]) distinct[groups++] = distinct[i];
+    for (uint32_t f = 0; f < nf; ++f) {
+        if (w->triangle_back[f] == WELD_NO_BACK) continue;
+        size_t lo = 0, hi = groups;
+        while (lo < hi) {
+            const size_t mid = lo + (hi - lo) / 2;
+            if (distinct[mid] < pair[f]) lo = mid + 1;
+            else hi = mid;
+        }
+        s->face_material[f] = -2 - (int32_t)lo;
+    }
+    free(pair);
+    free(distinct);
+    return 0;
+}
+
 static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, const simplify_options *o)
 {
     const uint32_t nv = w->vertex_count, nf = w->triangle_count;
@@ -3411,6 +3460,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
         int64_t m = primitive_material[w->triangle_primitive[f]];
         s->face_material[f] = m < 0 ? -1 : (int32_t)(m > INT32_MAX ? INT32_MAX : m);
     }
+    if (w->back_count && back_groups(s, w, primitive_material)) return -1;
     memcpy(s->corner_vertex, w->triangle_vertices, 3 * (size_t)nf * sizeof *s->corner_vertex);
     memset(s->face_alive, 1, nf);
     memset(s->vertex_alive, 1, nv);
@@ -3545,7 +3595,9 @@ static int snapshot_level(sim *s, simplify_level *level)
      * by themselves, they add nothing to the bound */
     const weld_result *w = s->w;
     level->bound = bound;
-    level->triangle_count = alive + w->dangling_count;
+    uint32_t backs = 0;
+    for (uint32_t i = 0; i < alive && w->back_count; ++i) backs += w->triangle_back[s->face_list[i]] != WELD_NO_BACK;
+    level->triangle_count = alive + backs + w->dangling_count;
     level->wedges = malloc(((size_t)level->triangle_count * 3 + 1) * sizeof *level->wedges);
     level->primitive = malloc(((size_t)level->triangle_count + 1) * sizeof *level->primitive);
     if (!level->wedges || !level->primitive) return -1;
@@ -3559,6 +3611,25 @@ static int snapshot_level(sim *s, simplify_level *level)
         const uint32_t f = s->face_list[i];
         memcpy(level->wedges + 3 * (size_t)n, s->corner_wedge + 3 * (size_t)f, 3 * sizeof *level->wedges);
         level->primitive[n++] = w->triangle_primitive[f];
+    }
+    /* the back faces (weld.h): the same corners in the other winding, each
+     * with the back layer's wedge for the front's class there */
+    for (uint32_t i = 0; i < alive && backs; ++i) {
+        const uint32_t f = s->face_list[i], b = w->triangle_back[f];
+        if (b == WELD_NO_BACK) continue;
+        static const int reversed[3] = {0, 2, 1};
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t front = s->corner_wedge[3 * (size_t)f + (size_t)reversed[k]];
+            const uint32_t wedge = weld_back_wedge(w, w->wedge_class[front], w->back_primitive[b]);
+            if (wedge == NONE) { /* weld.h's rules make this impossible */
+                s->verify_failed = 1;
+                snprintf(s->verify_msg, sizeof s->verify_msg, "face %u: no back wedge for class %u", f,
+                         w->wedge_class[front]);
+                return -1;
+            }
+            level->wedges[3 * (size_t)n + (size_t)k] = wedge;
+        }
+        level->primitive[n++] = w->back_primitive[b];
     }
     if (w->dangling_count) {
         memcpy(level->wedges + 3 * (size_t)n, w->dangling_wedges, 3 * (size_t)w->dangling_count * sizeof *level->wedges);

@@ -3,14 +3,17 @@
  *
  * Promise. For each level k, every point of the level is within
  * levels[k].bound of the original mesh (the welded triangles, per material,
- * and the weld's dangling triangles, which every level carries as they are,
- * after its faces) and every point of the original is within
+ * their backs and the weld's dangling triangles, which every level carries as
+ * they are, after its faces) and every point of the original is within
  * levels[k].bound of the level:
  * the two-sided Hausdorff distance, in mesh units, certified by certify.h,
  * with bound <= eps_k = fraction_k * diagonal. Each level is simplified from
  * the previous one (its vertices are a subset) and certified against the
  * original, so errors do not add up. When a collapse cannot be certified it
  * is not made; a level that removes nothing is simply equal to the previous.
+ * A level's faces come first, then the back faces of those whose triangle
+ * has a back (weld.h: the same corners in the other winding, in the back's
+ * primitive), then the dangling triangles.
  *
  * How. Half-edge collapses u -> v (v keeps its position and attributes, so
  * nothing is interpolated and all levels can share one vertex buffer), legal
@@ -120,7 +123,7 @@ typedef struct simplify_stats {
 typedef struct simplify_level {
     double eps;                 /* absolute */
     double bound;               /* certified two-sided bound, <= eps */
-    uint32_t triangle_count;    /* faces, then the weld's dangling_count triangles */
+    uint32_t triangle_count;    /* faces, their back faces, then the weld's dangling_count triangles */
     uint32_t *wedges;           /* 3 weld wedges per triangle */
     uint32_t *primitive;        /* per triangle: index into the mesh's primitives */
     /* NULL while every vertex is where the weld put it; else, once a level
@@ -139,7 +142,9 @@ typedef struct simplify_result {
 } simplify_result;
 
 /* primitive_material[p]: the material of the mesh's primitive p (-1: none);
- * faces are certified only against original triangles of their material.
+ * faces are certified only against original triangles of their material,
+ * and a face with a back (weld.h) only against triangles with a back of the
+ * same material, so that its back face holds, mirrored, for the backs.
  * Returns LP_OK, LP_INVALID (out of memory) or LP_PROMISE (the invariant
  * checker found a broken invariant: a bug, reported rather than written).
  * w is read only, except that its triangle_wedges array is taken over (the

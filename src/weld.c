@@ -19,7 +19,9 @@
  *   pair_edges         opposite edge / border / non-manifold (per vertex, from
  *                      the vertex-triangle lists)
  *   mark_seams         seam flag of manifold interior edges
+ *   take_backs         reversed repeats out of the topology, as backs
  *   classify_vertices  walk each umbrella, apply the kind rules
+ *   lock_back_borders  where backs start, stop or change primitive
  *   find_dangling      dropped triangles that may lie off the surface
  *   keep_dangling      ... kept beside the topology, their vertices locked */
 #include "weld.h"
@@ -90,6 +92,7 @@ typedef struct weld_work {
     uint32_t prov_count;
     uint32_t *prov_final;    /* provisional position -> final vertex id or NONE */
     uint32_t *dangling_triangle; /* per dangling triangle: its number in its primitive */
+    int classes_done;        /* take_backs classified the wedges already */
 } weld_work;
 
 static void work_free(weld_work *k)
@@ -683,7 +686,8 @@ static int build_topology(weld_work *k, weld_result *out, unsigned threads, lp_e
     if (threads > WELD_THREADS_MAX) threads = WELD_THREADS_MAX;
     wedge_job job = {.k = k, .out = out};
     lp_beside wedges;
-    lp_beside_start(&wedges, threads > 1, run_classify_wedges, &job);
+    if (k->classes_done) memset(&wedges, 0, sizeof wedges);
+    else lp_beside_start(&wedges, threads > 1, run_classify_wedges, &job);
     build_vertex_triangles(out);
     lp_beside_join(&wedges);
     if (job.rc) {
@@ -695,6 +699,248 @@ static int build_topology(weld_work *k, weld_result *out, unsigned threads, lp_e
     run_step(out, STEP_KINDS, out->vertex_count, threads);
     count_kinds(out);
     return LP_OK;
+}
+
+/* ---- back faces (weld.h) ------------------------------------------------------ */
+
+/* The winding of a triangle's three distinct vertex numbers: the parity of
+ * the permutation that sorts them (rotations keep it, a reversal flips it). */
+static int winding_parity(const uint32_t *v)
+{
+    return ((v[0] > v[1]) + (v[0] > v[2]) + (v[1] > v[2])) & 1;
+}
+
+static uint32_t sorted_triple_hash(const uint32_t *v)
+{
+    uint32_t a = v[0], b = v[1], c = v[2], x;
+    if (a > b) x = a, a = b, b = x;
+    if (b > c) x = b, b = c, c = x;
+    if (a > b) x = a, a = b, b = x;
+    return hash_step(hash_step(hash_step(0x4241434bu, a), b), c);
+}
+
+static int same_vertex_set(const uint32_t *x, const uint32_t *y)
+{
+    for (int i = 0; i < 3; ++i)
+        if (x[i] != y[0] && x[i] != y[1] && x[i] != y[2]) return 0;
+    return 1;
+}
+
+/* Open addressing over queues of triangles with one vertex set and winding
+ * (each queue is named by the triangle that opened it). */
+typedef struct back_queues {
+    const weld_result *out;
+    size_t cap;
+    uint32_t *opener, *head, *tail; /* per slot */
+    uint32_t *next;                 /* per triangle: the next in its queue */
+} back_queues;
+
+/* The slot of the queue for t's vertex set with the given winding parity:
+ * the one opened, or the empty slot where it would open. */
+static size_t back_queue_slot(const back_queues *q, uint32_t t, int parity)
+{
+    const uint32_t *tv = q->out->triangle_vertices + 3 * (size_t)t;
+    size_t slot = hash_step(sorted_triple_hash(tv), (uint32_t)parity) & (q->cap - 1);
+    for (;; slot = (slot + 1) & (q->cap - 1)) {
+        const uint32_t o = q->opener[slot];
+        if (o == NONE) return slot;
+        const uint32_t *ov = q->out->triangle_vertices + 3 * (size_t)o;
+        if (same_vertex_set(ov, tv) && winding_parity(ov) == parity) return slot;
+    }
+}
+
+/* back_of[t] = the back paired with triangle t (NONE if none) and is_back[t],
+ * pairing in input order: each triangle with the earliest unpaired earlier
+ * one of the same vertex set and opposite winding (queues:
+ * O(1) per triangle however many repeat). Returns the number of pairs, or
+ * -1 when memory runs out. */
+static long pair_backs(const weld_result *out, uint32_t *back_of, uint8_t *is_back)
+{
+    const uint32_t n = out->triangle_count;
+    back_queues q = {out, table_capacity(n), NULL, NULL, NULL, NULL};
+    q.opener = alloc_array(q.cap, sizeof *q.opener);
+    q.head = alloc_array(q.cap, sizeof *q.head);
+    q.tail = alloc_array(q.cap, sizeof *q.tail);
+    q.next = alloc_array(n, sizeof *q.next);
+    long pairs = -1;
+    if (q.opener && q.head && q.tail && q.next) {
+        memset(q.opener, 0xff, q.cap * sizeof *q.opener);
+        pairs = 0;
+        for (uint32_t t = 0; t < n; ++t) {
+            const int parity = winding_parity(out->triangle_vertices + 3 * (size_t)t);
+            back_of[t] = NONE;
+            is_back[t] = 0;
+            q.next[t] = NONE;
+            const size_t other = back_queue_slot(&q, t, !parity);
+            if (q.opener[other] != NONE && q.head[other] != NONE) {
+                const uint32_t front = q.head[other];
+                q.head[other] = q.next[front];
+                back_of[front] = t;
+                is_back[t] = 1;
+                pairs++;
+                continue;
+            }
+            const size_t own = back_queue_slot(&q, t, parity);
+            if (q.opener[own] == NONE) q.opener[own] = q.head[own] = t;
+            else if (q.head[own] == NONE) q.head[own] = t; /* drained */
+            else q.next[q.tail[own]] = t;
+            q.tail[own] = t;
+        }
+    }
+    free(q.opener);
+    free(q.head);
+    free(q.tail);
+    free(q.next);
+    return pairs;
+}
+
+typedef struct back_map_entry {
+    uint64_t key; /* front wedge class << 32 | back primitive */
+    uint32_t wedge;
+} back_map_entry;
+
+static int compare_back_map_entries(const void *a, const void *b)
+{
+    const back_map_entry *x = a, *y = b;
+    if (x->key != y->key) return x->key < y->key ? -1 : 1;
+    return (x->wedge > y->wedge) - (x->wedge < y->wedge);
+}
+
+/* The back layer's wedge class for each (front wedge class, back primitive)
+ * of the pairs, into out->back_map_*. Returns 1 when every such key has one
+ * back class (stored), 0 when some key has two (nothing stored), -1 when
+ * memory runs out. */
+static int build_back_map(weld_result *out, const uint32_t *back_of, long pairs)
+{
+    back_map_entry *e = alloc_array(3 * (size_t)pairs, sizeof *e);
+    if (!e) return -1;
+    size_t n = 0;
+    for (uint32_t f = 0; f < out->triangle_count; ++f) {
+        const uint32_t b = back_of[f];
+        if (b == NONE) continue;
+        for (int c = 0; c < 3; ++c) {
+            const uint32_t vertex = out->triangle_vertices[3 * (size_t)f + (size_t)c];
+            int bc = 0;
+            while (out->triangle_vertices[3 * (size_t)b + (size_t)bc] != vertex) bc++;
+            e[n].key = (uint64_t)out->wedge_class[out->triangle_wedges[3 * (size_t)f + (size_t)c]] << 32 |
+                       out->triangle_primitive[b];
+            e[n++].wedge = out->wedge_class[out->triangle_wedges[3 * (size_t)b + (size_t)bc]];
+        }
+    }
+    qsort(e, n, sizeof *e, compare_back_map_entries);
+    size_t keys = 0;
+    for (size_t i = 0; i < n; ++i) {
+        if (i && e[i].key == e[i - 1].key) {
+            if (e[i].wedge != e[i - 1].wedge) {
+                free(e);
+                return 0;
+            }
+            continue;
+        }
+        e[keys++] = e[i];
+    }
+    out->back_map_key = alloc_array(keys, sizeof *out->back_map_key);
+    out->back_map_wedge = alloc_array(keys, sizeof *out->back_map_wedge);
+    if (!out->back_map_key || !out->back_map_wedge) {
+        free(e);
+        return -1;
+    }
+    for (size_t i = 0; i < keys; ++i) {
+        out->back_map_key[i] = e[i].key;
+        out->back_map_wedge[i] = e[i].wedge;
+    }
+    out->back_map_count = (uint32_t)keys;
+    free(e);
+    return 1;
+}
+
+/* Takes the backs (weld.h) out of the triangle arrays, keeping the others in
+ * order, into out->back_* and out->triangle_back. Needs the wedge classes,
+ * so it classifies the wedges itself when there is a pair. */
+static int take_backs(weld_work *k, weld_result *out, lp_error *err)
+{
+    const uint32_t n = out->triangle_count;
+    uint32_t *back_of = alloc_array(n, sizeof *back_of);
+    uint8_t *is_back = alloc_array(n, sizeof *is_back);
+    long pairs = back_of && is_back ? pair_backs(out, back_of, is_back) : -1;
+    int map = 0;
+    if (pairs > 0) {
+        int rc = classify_wedges(k, out, err);
+        if (rc) {
+            free(back_of);
+            free(is_back);
+            return rc;
+        }
+        k->classes_done = 1;
+        map = build_back_map(out, back_of, pairs);
+    }
+    if (pairs < 0 || map < 0) {
+        free(back_of);
+        free(is_back);
+        return out_of_memory(k, err);
+    }
+    if (map == 1) {
+        out->back_wedges = alloc_array(3 * (size_t)pairs, sizeof *out->back_wedges);
+        out->back_primitive = alloc_array((size_t)pairs, sizeof *out->back_primitive);
+        uint32_t *new_of = alloc_array(n, sizeof *new_of); /* old triangle -> kept number */
+        if (!out->back_wedges || !out->back_primitive || !new_of) {
+            free(new_of);
+            free(back_of);
+            free(is_back);
+            return out_of_memory(k, err);
+        }
+        uint32_t kept = 0, backs = 0;
+        for (uint32_t t = 0; t < n; ++t) {
+            if (is_back[t]) {
+                memcpy(out->back_wedges + 3 * (size_t)backs, out->triangle_wedges + 3 * (size_t)t,
+                       3 * sizeof *out->back_wedges);
+                out->back_primitive[backs] = out->triangle_primitive[t];
+                new_of[t] = backs++; /* a back's number among the backs */
+                continue;
+            }
+            memmove(out->triangle_wedges + 3 * (size_t)kept, out->triangle_wedges + 3 * (size_t)t,
+                    3 * sizeof *out->triangle_wedges);
+            memmove(out->triangle_vertices + 3 * (size_t)kept, out->triangle_vertices + 3 * (size_t)t,
+                    3 * sizeof *out->triangle_vertices);
+            out->triangle_primitive[kept] = out->triangle_primitive[t];
+            new_of[t] = kept++;
+        }
+        /* back_of becomes triangle_back: kept <= t, so each entry is read before it is written */
+        for (uint32_t t = 0; t < n; ++t)
+            if (!is_back[t]) back_of[new_of[t]] = back_of[t] == NONE ? WELD_NO_BACK : new_of[back_of[t]];
+        free(new_of);
+        out->triangle_back = back_of;
+        back_of = NULL;
+        out->back_count = backs;
+        out->triangle_count = kept;
+        out->stats.triangles = kept;
+        out->stats.back_triangles = backs;
+    }
+    free(back_of);
+    free(is_back);
+    return LP_OK;
+}
+
+/* A vertex where triangles with a back meet triangles without one, or with
+ * backs of different primitives, is locked: a face that moved over it could
+ * carry its back (or the lack of one) onto ground that had another. */
+static void lock_back_borders(weld_result *out)
+{
+    if (!out->back_count) return;
+    for (uint32_t v = 0; v < out->vertex_count; ++v) {
+        const uint32_t first = out->vertex_triangle_offsets[v], end = out->vertex_triangle_offsets[v + 1];
+        if (first == end) continue;
+        const uint32_t b0 = out->triangle_back[out->vertex_triangles[first]];
+        const uint32_t p0 = b0 == WELD_NO_BACK ? NONE : out->back_primitive[b0];
+        for (uint32_t i = first + 1; i < end; ++i) {
+            const uint32_t b = out->triangle_back[out->vertex_triangles[i]];
+            if ((b == WELD_NO_BACK ? NONE : out->back_primitive[b]) != p0) {
+                out->vertex_kind[v] = WELD_LOCKED;
+                break;
+            }
+        }
+    }
+    count_kinds(out);
 }
 
 /* A dropped triangle is "dangling" when its segment (two distinct positions)
@@ -913,7 +1159,9 @@ int weld_build(const scene_mesh *mesh, uint32_t threads, weld_result *out, lp_er
     if (!rc) rc = allocate_result(&k, out, err);
     if (!rc) {
         fill_arrays(&k, out);
-        rc = build_topology(&k, out, lp_threads(threads, WELD_THREADS_MAX), err);
+        rc = take_backs(&k, out, err);
+        if (!rc) rc = build_topology(&k, out, lp_threads(threads, WELD_THREADS_MAX), err);
+        if (!rc) lock_back_borders(out);
     }
     if (!rc) rc = find_dangling(&k, out, err);
     if (!rc) rc = keep_dangling(&k, out, err);
@@ -940,6 +1188,11 @@ void weld_free(weld_result *w)
     free(w->dangling_wedges);
     free(w->dangling_vertices);
     free(w->dangling_primitive);
+    free(w->back_wedges);
+    free(w->back_primitive);
+    free(w->triangle_back);
+    free(w->back_map_key);
+    free(w->back_map_wedge);
     memset(w, 0, sizeof *w);
 }
 
@@ -947,6 +1200,23 @@ void weld_release_edge_opposite(weld_result *w)
 {
     free(w->edge_opposite);
     w->edge_opposite = NULL;
+}
+
+uint32_t weld_back_wedge(const weld_result *w, uint32_t front_class, uint32_t back_primitive)
+{
+    const uint64_t key = (uint64_t)front_class << 32 | back_primitive;
+    uint32_t lo = 0, hi = w->back_map_count;
+    while (lo < hi) {
+        const uint32_t mid = lo + (hi - lo) / 2;
+        if (w->back_map_key[mid] < key) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo < w->back_map_count && w->back_map_key[lo] == key ? w->back_map_wedge[lo] : NONE;
+}
+
+uint32_t weld_level0_triangles(const weld_result *w)
+{
+    return w->triangle_count + w->back_count + w->dangling_count;
 }
 
 /* Rows: vertex kind. Columns: the edge it would collapse along, as

@@ -32,6 +32,29 @@
  *   triangle uses are numbered after all the kept triangles' ones, by first
  *   appearance among the dangling triangles; such vertices have no triangle
  *   in the adjacency (an empty range) and such wedges are their own class;
+ * - back faces: a kept triangle whose three position vertices are an earlier
+ *   kept triangle's in the opposite winding is that triangle's BACK (a
+ *   double-sided sheet modelled as two coincident layers, as exporters and
+ *   some games' foliage cards do; the back may have its own vertices,
+ *   primitive and material). Backs are taken out of
+ *   the topology, which would otherwise see four triangles on every edge and
+ *   lock the whole sheet; each front triangle has at most one back, the
+ *   earliest unpaired one (input order). A level gives every face whose
+ *   triangle has a back a back face: the same corners in the opposite
+ *   winding, in the back's primitive, each corner the back layer's wedge
+ *   that faces of the front's wedge class there use (weld_back_wedge). As
+ *   point sets the back layer of a level IS its front layer, and the
+ *   original's back layer its front layer; the simplifier certifies faces
+ *   with a back only against originals with a back of the same material
+ *   (simplify.h), so the levels' certificates hold for the back faces, per
+ *   material and facing, by symmetry. Two rules keep the back
+ *   layer where it was: a vertex where triangles with a back meet triangles
+ *   without one, or backs of different primitives meet, is LOCKED (so a
+ *   face never grows over ground whose back was different); and when the
+ *   back layer's wedge at some vertex is not decided by the front's wedge
+ *   class there and the back primitive (the back has an attribute seam the
+ *   front lacks), the mesh gets no backs at all (they stay in the topology,
+ *   as before this rule: locked, kept);
  * - adjacency: for each position vertex the triangles around it (CSR), and
  *   for each triangle edge the opposite edge, or a border / non-manifold
  *   marker, plus a seam flag;
@@ -127,7 +150,7 @@ typedef enum weld_kind {
 typedef struct weld_stats {
     uint32_t primitives;           /* triangle primitives welded */
     uint32_t input_triangles;      /* triangles of those primitives */
-    uint32_t triangles;            /* kept = input - degenerate */
+    uint32_t triangles;            /* in the topology = input - degenerate - back */
     uint32_t degenerate_triangles; /* dropped: two corners on one position vertex */
     uint32_t degenerate_dangling;  /* of those, ones whose segment/point is not
                                       an edge/vertex of a kept triangle (see weld.c):
@@ -142,6 +165,7 @@ typedef struct weld_stats {
     uint32_t nonmanifold_edges;
     uint32_t seam_edges;
     uint32_t nonmanifold_vertices; /* several fans meet there (bow-tie, pinch) */
+    uint32_t back_triangles;       /* kept triangles taken out as backs, = back_count */
 } weld_stats;
 
 typedef struct weld_result {
@@ -175,8 +199,21 @@ typedef struct weld_result {
     uint32_t *dangling_vertices;  /* 3 per triangle, = wedge_vertex[dangling_wedges[..]] */
     uint32_t *dangling_primitive; /* 1 per triangle */
 
+    /* back faces (above): taken out of the topology, in input order */
+    uint32_t back_count;
+    uint32_t *back_wedges;     /* 3 per back triangle, in its own winding */
+    uint32_t *back_primitive;  /* 1 per back triangle */
+    uint32_t *triangle_back;   /* per triangle: its back, or WELD_NO_BACK; NULL when back_count is 0 */
+    /* the back layer's wedge for a front corner: sorted keys
+     * (front wedge class << 32 | back primitive) and the wedge of each */
+    uint32_t back_map_count;
+    uint64_t *back_map_key;
+    uint32_t *back_map_wedge;
+
     weld_stats stats;
 } weld_result;
+
+#define WELD_NO_BACK UINT32_MAX
 
 /* Welds every primitive of `mesh` that is not skipped and has triangles (its
  * mode is 4..6; scene_load expanded strips and fans) into `out`, as described
@@ -188,6 +225,15 @@ typedef struct weld_result {
  * `threads` is a "threads" option (threads.h: 0 is one per core), the
  * simplifier's own. */
 int weld_build(const scene_mesh *mesh, uint32_t threads, weld_result *out, lp_error *err);
+
+/* The back layer's wedge for a face corner whose front wedge has class
+ * front_class, on a face whose back is in primitive back_primitive; NONE
+ * (UINT32_MAX) when the original has no such corner. */
+uint32_t weld_back_wedge(const weld_result *w, uint32_t front_class, uint32_t back_primitive);
+
+/* Triangles of level 0 as the levels count them: the topology's, their
+ * backs and the dangling ones. */
+uint32_t weld_level0_triangles(const weld_result *w);
 
 /* Frees every array of `w` and zeroes it. Safe on a zeroed or freed result. */
 void weld_free(weld_result *w);

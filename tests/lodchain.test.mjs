@@ -804,6 +804,60 @@ test('rewritten vertex and index data: the new bufferViews keep the old views\' 
   });
 });
 
+// Double-sided geometry (README "Back faces"): a mesh whose every triangle is there twice, once in each
+// winding (the back a primitive and material of its own, on the same vertices, as exporters write a
+// two-sided sheet), used to lock every vertex (four triangles on each edge) and got no levels. The backs are
+// now taken out of the topology and follow the front: every level has both sides (twice the plain cow's
+// triangles, the back faces exactly the front faces reversed, in the back's primitive), and the whole chain
+// checker passes, the CGAL-proven bounds included.
+test('a double-sided mesh: every level has both sides, the back the front reversed, certified', { skip: skipRuns || hausdorffSkip }, async (t) => {
+  const cow = readRaw(corpusPath('scans/cow.glb'));
+  const front = cow.accessorArray(cow.json.meshes[0].primitives[0].indices);
+  const reversed = new Uint16Array(front.length);
+  for (let i = 0; i < front.length; i += 3) reversed.set([front[i], front[i + 2], front[i + 1]], i);
+  const input = cowVariant(tempDir(t), 'cow_double.gltf', (j) => {
+    const bytes = Buffer.from(reversed.buffer);
+    const b = j.buffers.push({ byteLength: bytes.length, uri: `data:application/octet-stream;base64,${bytes.toString('base64')}` }) - 1;
+    const v = j.bufferViews.push({ buffer: b, byteLength: bytes.length, target: 34963 }) - 1;
+    const indices = j.accessors.push({ bufferView: v, componentType: 5123, count: reversed.length, type: 'SCALAR' }) - 1;
+    j.materials = [{ name: 'cow outside' }, { name: 'cow inside' }];
+    const prim = j.meshes[0].primitives[0];
+    prim.material = 0;
+    j.meshes[0].primitives.push({ attributes: { ...prim.attributes }, indices, mode: 4, material: 1 });
+  });
+  const run = mainJob(input, '.glb', [], { tag: 'double' });
+  assert.deepEqual(runFatal(run), [], `the main job failed\n${describeRun(run.r)}`);
+  const single = mainJob(corpusPath('scans/cow.glb'), '.glb', []);
+  assert.deepEqual(runFatal(single), [], `the plain cow failed\n${describeRun(single.r)}`);
+  const res = await analyzeChain({ inFile: input, outFile: run.out, summary: run.summary });
+  await assertAspects(t, res, 'double-sided cow');
+  await t.test('twice the plain cow\'s triangles at every level, the back faces the front faces reversed', () => {
+    const counts = (sum) => sum.meshes[0].levels.map((l) => l.triangles);
+    assert.ok(counts(single.summary).length > 0, 'the plain cow has levels');
+    assert.deepEqual(counts(run.summary), counts(single.summary).map((n) => 2 * n));
+    const out = readRaw(run.out);
+    const key = (pos, a, b, c) => {
+      const v = [a, b, c].map((x) => Array.from(pos.slice(3 * x, 3 * x + 3)).join(','));
+      const low = v.indexOf([...v].sort()[0]);
+      return [0, 1, 2].map((k) => v[(low + k) % 3]).join(' ');
+    };
+    for (const id of firstChainIds(out.json)) {
+      const m = out.json.nodes[id].mesh;
+      const mesh = out.json.meshes[m];
+      assert.deepEqual(mesh.primitives.map((p) => p.material), [0, 1], `${mesh.name}: the two materials`);
+      const sides = mesh.primitives.map((prim, p) => {
+        const tris = primTriangles(rawPrimGeometry(out, m, p));
+        const pos = out.accessorArray(prim.attributes.POSITION);
+        const keys = [];
+        for (let i = 0; i < tris.length; i += 3) keys.push(p === 0 ? key(pos, tris[i], tris[i + 1], tris[i + 2]) : key(pos, tris[i], tris[i + 2], tris[i + 1]));
+        return keys.sort();
+      });
+      assert.ok(sides[0].length > 0, `${mesh.name}: front faces`);
+      assert.deepEqual(sides[1], sides[0], `${mesh.name}: the back faces are the front faces reversed`);
+    }
+  });
+});
+
 // A node with a mesh AND a camera, a KHR_lights_punctual light and an extension lodpipe does not know (QA):
 // its LOD nodes carried none of them, so a client that shows a LOD node in the node's place lost the light
 // and the camera at coarse levels. The node keeps them and hands its mesh to a "<node>_mesh" child that

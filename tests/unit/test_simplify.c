@@ -183,7 +183,8 @@ static int run_simplify(run *rn, const mesh *m, const double *fractions, uint32_
     CHECK(rc == LP_OK, "weld_build: %s", err.msg);
     if (rc != LP_OK) return rc;
     rn->welded = 1;
-    CHECK(rn->w.triangle_count == m->nt, "weld kept every triangle: %u of %u", rn->w.triangle_count, m->nt);
+    CHECK(rn->w.triangle_count + rn->w.back_count == m->nt, "weld kept every triangle: %u (and %u backs) of %u",
+          rn->w.triangle_count, rn->w.back_count, m->nt);
     simplify_options o;
     memset(&o, 0, sizeof o);
     o.fractions = fractions;
@@ -436,12 +437,26 @@ static measure sample_max(vec3d (*a)[3], size_t na, tset *b, double spacing, int
 }
 
 /* Triangles of the original (welded) and of level k, as coordinates. */
+/* The original's triangles: the weld's, then their backs (weld.h). */
+static uint32_t original_count(const run *rn)
+{
+    return rn->w.triangle_count + rn->w.back_count;
+}
+
+static uint32_t original_primitive(const run *rn, uint32_t f)
+{
+    return f < rn->w.triangle_count ? rn->w.triangle_primitive[f] : rn->w.back_primitive[f - rn->w.triangle_count];
+}
+
 static vec3d (*original_tris(const run *rn))[3]
 {
-    vec3d (*t)[3] = malloc(((size_t)rn->w.triangle_count + 1) * sizeof *t);
+    vec3d (*t)[3] = malloc(((size_t)original_count(rn) + 1) * sizeof *t);
     if (!t) abort();
     for (uint32_t f = 0; f < rn->w.triangle_count; ++f)
         for (int c = 0; c < 3; ++c) t[f][c] = weld_point(&rn->w, rn->w.triangle_vertices[3 * f + (uint32_t)c]);
+    for (uint32_t b = 0; b < rn->w.back_count; ++b)
+        for (int c = 0; c < 3; ++c)
+            t[rn->w.triangle_count + b][c] = weld_point(&rn->w, rn->w.wedge_vertex[rn->w.back_wedges[3 * b + (uint32_t)c]]);
     return t;
 }
 
@@ -603,7 +618,7 @@ static two_sided check_levels(const char *name, const run *rn, int max_div)
     two_sided last = {0, 0};
     vec3d(*orig)[3] = original_tris(rn);
     tset so;
-    tset_build(&so, orig, rn->w.triangle_count);
+    tset_build(&so, orig, original_count(rn));
     const double slack = slack_of(rn);
     for (uint32_t k = 0; k < rn->r.level_count; ++k) {
         const simplify_level *L = &rn->r.levels[k];
@@ -614,7 +629,7 @@ static two_sided check_levels(const char *name, const run *rn, int max_div)
         const double spacing = L->eps / 3.0;
         for (int oriented = 0; oriented <= 1; ++oriented) {
             measure a = sample_max(lev, L->triangle_count, &so, spacing, max_div, oriented);
-            measure b = sample_max(orig, rn->w.triangle_count, &sl, spacing, max_div, oriented);
+            measure b = sample_max(orig, original_count(rn), &sl, spacing, max_div, oriented);
             CHECK(a.worst <= L->bound + slack,
                   "%s level %u%s: level -> original sampled %.17g > certified bound %.17g (eps %g) at level face %zu, "
                   "point (%.9g, %.9g, %.9g)",
@@ -634,11 +649,11 @@ static two_sided check_levels(const char *name, const run *rn, int max_div)
          * their own material, and each original only by faces of its own */
         for (uint32_t prim = 0; rn->sm.primitive_count > 1 && prim < rn->sm.primitive_count; ++prim) {
             size_t no = 0, nl = 0;
-            vec3d(*om)[3] = malloc(((size_t)rn->w.triangle_count + 1) * sizeof *om);
+            vec3d(*om)[3] = malloc(((size_t)original_count(rn) + 1) * sizeof *om);
             vec3d(*lm)[3] = malloc(((size_t)L->triangle_count + 1) * sizeof *lm);
             if (!om || !lm) abort();
-            for (uint32_t f = 0; f < rn->w.triangle_count; ++f)
-                if (rn->w.triangle_primitive[f] == prim) memcpy(om[no++], orig[f], sizeof orig[f]);
+            for (uint32_t f = 0; f < original_count(rn); ++f)
+                if (original_primitive(rn, f) == prim) memcpy(om[no++], orig[f], sizeof orig[f]);
             for (uint32_t f = 0; f < L->triangle_count; ++f)
                 if (L->primitive[f] == prim) memcpy(lm[nl++], lev[f], sizeof lev[f]);
             tset a_set, b_set;
@@ -1270,6 +1285,97 @@ static void test_hill_over_coarse_hill_regions(void)
     mesh_free(&m);
 }
 
+/* ---- a double-sided sheet (weld.h "back faces") -------------------------------- */
+
+/* Face (a, b, c) rotated to start at its lowest vertex, packed; `reverse`
+ * reads it as (a, c, b). */
+static uint64_t face_key(uint32_t a, uint32_t b, uint32_t c, int reverse)
+{
+    uint32_t v[3] = {a, reverse ? c : b, reverse ? b : c};
+    int low = v[0] < v[1] ? (v[0] < v[2] ? 0 : 2) : (v[1] < v[2] ? 1 : 2);
+    return (uint64_t)v[low] << 42 | (uint64_t)v[(low + 1) % 3] << 21 | v[(low + 2) % 3];
+}
+
+static int compare_keys(const void *x, const void *y)
+{
+    const uint64_t a = *(const uint64_t *)x, b = *(const uint64_t *)y;
+    return (a > b) - (a < b);
+}
+
+/* A hill modelled as two coincident layers, the back in a primitive (and
+ * material) of its own: the back is no obstacle (nothing is locked), every
+ * level's back faces are exactly its front faces reversed, and the sampled
+ * measure holds per primitive and facing, against the original's front and
+ * back. */
+static void test_double_sided_sheet(void)
+{
+    mesh m;
+    mesh_init(&m);
+    mesh_grid(&m, 40, 40, 0, 10, 0, 10, hill_height, NULL);
+    const uint32_t front = m.nt;
+    m.cur_mat = 1;
+    for (uint32_t t = 0; t < front; ++t) {
+        const uint32_t a = m.tri[3 * t], b = m.tri[3 * t + 1], c = m.tri[3 * t + 2];
+        mesh_tri(&m, a, c, b);
+    }
+    const double fractions[2] = {0.01, 0.03};
+    /* the single sheet, for its levels */
+    mesh single = m;
+    single.nt = front;
+    run one;
+    uint64_t *single_keys[2] = {NULL, NULL};
+    uint32_t single_count[2] = {0, 0};
+    if (run_simplify(&one, &single, fractions, 2, 1, 0) == LP_OK)
+        for (uint32_t k = 0; k < 2; ++k) {
+            const simplify_level *L = &one.r.levels[k];
+            single_keys[k] = malloc(((size_t)L->triangle_count + 1) * sizeof *single_keys[k]);
+            if (!single_keys[k]) abort();
+            for (uint32_t f = 0; f < L->triangle_count; ++f)
+                single_keys[k][single_count[k]++] = face_key(level_vertex(&one, k, f, 0), level_vertex(&one, k, f, 1),
+                                                             level_vertex(&one, k, f, 2), 0);
+            qsort(single_keys[k], single_count[k], sizeof *single_keys[k], compare_keys);
+        }
+    run_free(&one);
+    for (uint32_t threads = 1; threads <= 2; ++threads) {
+        run rn;
+        if (run_simplify(&rn, &m, fractions, 2, threads, 1) == LP_OK) {
+            CHECK(rn.w.back_count == front && rn.w.stats.vertices_by_kind[WELD_LOCKED] == 0, "backs %u, locked %u",
+                  rn.w.back_count, rn.w.stats.vertices_by_kind[WELD_LOCKED]);
+            for (uint32_t k = 0; k < rn.r.level_count; ++k) {
+                const simplify_level *L = &rn.r.levels[k];
+                uint64_t *keys[2];
+                uint32_t n[2] = {0, 0};
+                for (int side = 0; side < 2; ++side) {
+                    keys[side] = malloc(((size_t)L->triangle_count + 1) * sizeof *keys[side]);
+                    if (!keys[side]) abort();
+                }
+                for (uint32_t f = 0; f < L->triangle_count; ++f) {
+                    const uint32_t side = L->primitive[f] == 1;
+                    keys[side][n[side]++] = face_key(level_vertex(&rn, k, f, 0), level_vertex(&rn, k, f, 1),
+                                                     level_vertex(&rn, k, f, 2), (int)side);
+                }
+                qsort(keys[0], n[0], sizeof *keys[0], compare_keys);
+                qsort(keys[1], n[1], sizeof *keys[1], compare_keys);
+                CHECK(n[0] == n[1] && n[0] > 0 && n[0] < front / 10 &&
+                          memcmp(keys[0], keys[1], n[0] * sizeof *keys[0]) == 0,
+                      "level %u: %u front and %u back faces (of %u), the backs the fronts reversed", k, n[0], n[1], front);
+                /* the back changes nothing for the front: the same decisions, the same faces */
+                CHECK(k < 2 && n[0] == single_count[k] && single_keys[k] &&
+                          memcmp(keys[0], single_keys[k], n[0] * sizeof *keys[0]) == 0,
+                      "level %u: the front layer is the single sheet's level (%u and %u faces)", k, n[0],
+                      k < 2 ? single_count[k] : 0);
+                free(keys[0]);
+                free(keys[1]);
+            }
+            check_levels("double-sided sheet", &rn, 4);
+        }
+        run_free(&rn);
+    }
+    free(single_keys[0]);
+    free(single_keys[1]);
+    mesh_free(&m);
+}
+
 /* ---- sawtooth border ---------------------------------------------------------- */
 
 static double saw_y(uint32_t i, double h)
@@ -1851,5 +1957,6 @@ int main(void)
     run_cases();
     RUN(test_wavy_shell_regions);
     RUN(test_hill_over_coarse_hill_regions);
+    RUN(test_double_sided_sheet);
     return check_summary();
 }

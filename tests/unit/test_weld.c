@@ -141,7 +141,9 @@ static void check_invariants(const weld_result *w, const scene_mesh *m)
           w->vertex_count);
     CHECK(sum_w == w->wedge_count && s->wedges == w->wedge_count, "wedge counts %u %u", sum_w, w->wedge_count);
     CHECK(s->triangles == w->triangle_count, "triangles");
-    CHECK(s->input_triangles == s->triangles + s->degenerate_triangles, "input = kept + dropped");
+    CHECK(s->input_triangles == s->triangles + s->degenerate_triangles + s->back_triangles,
+          "input = kept + dropped + backs");
+    CHECK(s->back_triangles == w->back_count, "back count");
     CHECK(s->degenerate_dangling <= s->degenerate_triangles, "dangling <= dropped");
 
     /* corners, wedges, positions; numbering by first appearance */
@@ -166,7 +168,12 @@ static void check_invariants(const weld_result *w, const scene_mesh *m)
     CHECK(ok_corner, "corners: distinct vertices, wedge vertex and primitive agree");
     /* then the dangling triangles' own positions and wedges, by first appearance among them; their
      * vertices locked */
-    const uint32_t kept_wedges = next_w;
+    /* (backs were numbered where they came in the input, among the others: the
+     * order is checked only without them; check_backs checks the backs) */
+    if (w->back_count) ok_order = 1;
+    uint32_t kept_wedges = next_w;
+    for (uint32_t i = 0; i < 3 * w->back_count; ++i)
+        if (w->back_wedges[i] + 1 > kept_wedges) kept_wedges = w->back_wedges[i] + 1;
     CHECK(w->dangling_count == s->degenerate_dangling, "dangling kept %u of %u", w->dangling_count, s->degenerate_dangling);
     int ok_dangling = 1;
     for (uint32_t i = 0; i < 3 * w->dangling_count; ++i) {
@@ -174,7 +181,7 @@ static void check_invariants(const weld_result *w, const scene_mesh *m)
         if (wd >= w->wedge_count || w->wedge_vertex[wd] != v || w->vertex_kind[v] != WELD_LOCKED ||
             w->wedge_primitive[wd] != w->dangling_primitive[i / 3])
             ok_dangling = 0;
-        if (v > next_v || wd > next_w) ok_order = 0;
+        if (!w->back_count && (v > next_v || wd > next_w)) ok_order = 0;
         if (v == next_v) next_v++;
         if (wd == next_w) next_w++;
         if (wd < w->wedge_count) {
@@ -185,7 +192,8 @@ static void check_invariants(const weld_result *w, const scene_mesh *m)
         }
     }
     CHECK(ok_dangling, "dangling triangles: wedge vertex and primitive agree, vertices locked");
-    CHECK(ok_order && next_v == w->vertex_count && next_w == w->wedge_count, "first-appearance numbering");
+    CHECK(ok_order && (w->back_count || (next_v == w->vertex_count && next_w == w->wedge_count)),
+          "first-appearance numbering");
     CHECK(ok_pos, "wedge positions equal their vertex position");
 
     /* wedge classes: representative is the lowest equal wedge (a wedge only dangling triangles use is
@@ -290,12 +298,63 @@ static void check_invariants(const weld_result *w, const scene_mesh *m)
         if (kind == WELD_SEAM && (vborder || vseam != 2 || vchange != 2)) ok_kind = 0;
         int dangles = 0;
         for (uint32_t i = 0; i < 3 * w->dangling_count; ++i) dangles |= w->dangling_vertices[i] == v;
+        /* a back border (weld.h): triangles around v differ in their back's primitive, or in having one */
+        uint64_t first_back = UINT64_MAX;
+        int back_border = 0;
+        for (uint32_t t = 0; t < w->triangle_count && w->back_count; ++t) {
+            const uint32_t *tv = &w->triangle_vertices[3 * t];
+            if (tv[0] != v && tv[1] != v && tv[2] != v) continue;
+            const uint32_t b = w->triangle_back[t];
+            const uint64_t sig = b == WELD_NO_BACK ? UINT32_MAX : w->back_primitive[b];
+            if (first_back == UINT64_MAX) first_back = sig;
+            else if (sig != first_back) back_border = 1;
+        }
+        if (back_border && kind != WELD_LOCKED) ok_kind = 0;
+        dangles |= back_border;
         if (kind == WELD_LOCKED && !vnm && vborder == 0 && vchange == 0 && !dangles) {
             /* locked without a reason at the edges or a dangling triangle: must be several fans */
             if (w->stats.nonmanifold_vertices == 0) ok_kind = 0;
         }
     }
     CHECK(ok_kind, "kinds agree with the edges around each vertex");
+}
+
+/* Each back (weld.h) is the reverse of exactly one front triangle, its wedges
+ * sit on the front's vertices in the back's primitive, and weld_back_wedge
+ * gives the back's class for the front's class at each corner. */
+static void check_backs(const weld_result *w)
+{
+    uint8_t *used = calloc((size_t)w->back_count + 1, 1);
+    int ok = used != NULL;
+    uint32_t fronts = 0;
+    for (uint32_t t = 0; t < w->triangle_count && ok && w->back_count; ++t) {
+        const uint32_t b = w->triangle_back[t];
+        if (b == WELD_NO_BACK) continue;
+        fronts++;
+        if (b >= w->back_count || used[b]) {
+            ok = 0;
+            break;
+        }
+        used[b] = 1;
+        const uint32_t *tv = &w->triangle_vertices[3 * t], *bw = &w->back_wedges[3 * b];
+        /* the back, read in reverse from the corner on tv[0], must be tv */
+        int start = -1;
+        for (int k = 0; k < 3; ++k)
+            if (w->wedge_vertex[bw[k]] == tv[0]) start = k;
+        if (start < 0) {
+            ok = 0;
+            break;
+        }
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t back_wedge = bw[(start + 3 - k) % 3];
+            if (w->wedge_vertex[back_wedge] != tv[k] || w->wedge_primitive[back_wedge] != w->back_primitive[b]) ok = 0;
+            const uint32_t front_class = w->wedge_class[w->triangle_wedges[3 * t + (uint32_t)k]];
+            if (weld_back_wedge(w, front_class, w->back_primitive[b]) != w->wedge_class[back_wedge]) ok = 0;
+        }
+    }
+    CHECK(ok && fronts == w->back_count, "backs: %u fronts for %u backs, each the reverse of its front", fronts,
+          w->back_count);
+    free(used);
 }
 
 static int euler(const weld_result *w)
@@ -323,6 +382,7 @@ static int weld_ok(const tmesh *m, weld_result *w)
     int rc = weld_build(&m->mesh, 1, w, &err);
     CHECK(rc == LP_OK, "weld_build failed: %s", err.msg);
     if (rc == LP_OK) check_invariants(w, &m->mesh);
+    if (rc == LP_OK) check_backs(w);
     return rc == LP_OK;
 }
 
@@ -828,6 +888,144 @@ static void test_fin_and_flipped(void)
     free(f);
 }
 
+/* Adds to b the reverse of each of its triangles [first, first + count) for
+ * which keep(triangle) says so, reading positions from b itself. */
+static void add_reversed(pbuf *to, const pbuf *from, uint32_t first, uint32_t count, uint32_t offset, int left_only)
+{
+    for (uint32_t t = first; t < first + count; ++t) {
+        const uint32_t *tv = &from->tri[3 * t];
+        if (left_only && (from->pos[3 * tv[0]] > 2.0f || from->pos[3 * tv[1]] > 2.0f || from->pos[3 * tv[2]] > 2.0f))
+            continue;
+        pbuf_tri(to, tv[0] + offset, tv[2] + offset, tv[1] + offset);
+    }
+}
+
+/* A double-sided sheet: the reverse of every triangle is its back, out of the
+ * topology, which is then the single sheet's (weld.h "back faces"). */
+static void test_double_sided(void)
+{
+    weld_result w;
+    tmesh m;
+    /* one primitive, the back on the same vertices */
+    pbuf *b = pbuf_new();
+    build_grid(b, 0, 4, 4);
+    add_reversed(b, b, 0, 32, 0, 0);
+    tmesh_init(&m, "double");
+    tmesh_add(&m, b, 0, 1, 1);
+    if (weld_ok(&m, &w)) {
+        CHECK(w.back_count == 32 && w.triangle_count == 32, "backs %u, topology %u", w.back_count, w.triangle_count);
+        CHECK(count_kind(&w, WELD_BORDER) == 16 && count_kind(&w, WELD_MANIFOLD) == 9 && count_kind(&w, WELD_LOCKED) == 0,
+              "kinds of a single grid: border %u manifold %u locked %u", count_kind(&w, WELD_BORDER),
+              count_kind(&w, WELD_MANIFOLD), count_kind(&w, WELD_LOCKED));
+        CHECK(w.stats.nonmanifold_edges == 0 && euler(&w) == 1, "a disk: non-manifold %u, Euler %d",
+              w.stats.nonmanifold_edges, euler(&w));
+        uint32_t first_back = UINT32_MAX;
+        for (uint32_t t = 0; t < w.triangle_count; ++t)
+            if (w.triangle_back[t] < first_back) first_back = w.triangle_back[t];
+        CHECK(w.triangle_back[0] == 0 && first_back == 0, "the first front has the first back");
+    }
+    weld_free(&w);
+
+    /* the back as its own primitive and material, normals turned over */
+    pbuf *c = pbuf_new();
+    build_grid(c, 0, 4, 4);
+    for (uint32_t v = 0; v < c->vcount; ++v) c->nrm[3 * v + 2] = -1.0f;
+    pbuf *front = pbuf_new();
+    build_grid(front, 0, 4, 4);
+    c->tcount = 0;
+    add_reversed(c, front, 0, 32, 0, 0);
+    tmesh_init(&m, "two primitives");
+    tmesh_add(&m, front, 0, 1, 1);
+    tmesh_add(&m, c, 7, 1, 1);
+    if (weld_ok(&m, &w)) {
+        CHECK(w.back_count == 32 && w.triangle_count == 32 && count_kind(&w, WELD_LOCKED) == 0,
+              "backs %u, topology %u, locked %u", w.back_count, w.triangle_count, count_kind(&w, WELD_LOCKED));
+        const uint32_t centre = find_vertex(&w, 2, 2, 0);
+        uint32_t front_wedge = UINT32_MAX;
+        for (uint32_t x = 0; x < w.wedge_count; ++x)
+            if (w.wedge_vertex[x] == centre && w.wedge_primitive[x] == 0) front_wedge = x;
+        const uint32_t back = front_wedge == UINT32_MAX ? UINT32_MAX : weld_back_wedge(&w, w.wedge_class[front_wedge], 1);
+        CHECK(back != UINT32_MAX && w.wedge_primitive[back] == 1 && w.wedge_vertex[back] == centre &&
+                  c->nrm[3 * w.wedge_index[back] + 2] == -1.0f,
+              "the centre's back wedge is the back primitive's, facing down");
+        CHECK(weld_back_wedge(&w, w.wedge_class[front_wedge], 0) == UINT32_MAX, "no back in the front's primitive");
+    }
+    weld_free(&w);
+
+    /* backs on the left half only: the line where they stop is locked */
+    pbuf *h = pbuf_new();
+    build_grid(h, 0, 4, 4);
+    add_reversed(h, h, 0, 32, 0, 1);
+    tmesh_init(&m, "half");
+    tmesh_add(&m, h, 0, 1, 1);
+    if (weld_ok(&m, &w)) {
+        CHECK(w.back_count == 16, "backs %u", w.back_count);
+        int line_locked = 1, others_free = 1;
+        for (uint32_t v = 0; v < w.vertex_count; ++v) {
+            if (w.positions[3 * v] == 2.0f) line_locked &= w.vertex_kind[v] == WELD_LOCKED;
+            else others_free &= w.vertex_kind[v] != WELD_LOCKED;
+        }
+        CHECK(line_locked && others_free, "locked exactly where the backs stop");
+    }
+    weld_free(&w);
+
+    /* a back with a UV seam the front lacks: no backs (both layers in the topology, as before) */
+    pbuf *sd = pbuf_new();
+    build_grid(sd, 0, 4, 4);
+    const uint32_t base = sd->vcount;
+    build_grid(sd, 0, 4, 4); /* the back's own vertices */
+    for (uint32_t v = base; v < sd->vcount; ++v)
+        if (sd->pos[3 * v] > 2.0f) sd->uv[2 * v] += 0.5f;
+    sd->tcount = 32;
+    const uint32_t seam_base = sd->vcount; /* column x = 2 again, with the right side's UV */
+    for (uint32_t v = base; v < seam_base; ++v)
+        if (sd->pos[3 * v] == 2.0f) {
+            float uv[2] = {sd->uv[2 * v] + 0.5f, sd->uv[2 * v + 1]};
+            pbuf_vertex(sd, 2.0f, sd->pos[3 * v + 1], 0.0f, &sd->nrm[3 * v], uv);
+        }
+    for (uint32_t t = 0; t < 32; ++t) {
+        uint32_t tv[3];
+        int right = 1;
+        for (int k = 0; k < 3; ++k) {
+            tv[k] = sd->tri[3 * t + (uint32_t)k] + base;
+            right &= sd->pos[3 * tv[k]] >= 2.0f;
+        }
+        for (int k = 0; k < 3 && right; ++k)
+            if (sd->pos[3 * tv[k]] == 2.0f) tv[k] = seam_base + (uint32_t)(sd->pos[3 * tv[k] + 1]);
+        pbuf_tri(sd, tv[0], tv[2], tv[1]);
+    }
+    tmesh_init(&m, "back seam");
+    tmesh_add(&m, sd, 0, 1, 1);
+    if (weld_ok(&m, &w))
+        CHECK(w.back_count == 0 && w.triangle_count == 64 && w.stats.nonmanifold_edges > 0,
+              "backs %u, topology %u, non-manifold %u", w.back_count, w.triangle_count, w.stats.nonmanifold_edges);
+    weld_free(&w);
+
+    /* a repeat in the same winding is no back; a third layer stays in the topology */
+    pbuf *r = pbuf_new();
+    build_grid(r, 0, 4, 4);
+    pbuf_tri(r, r->tri[0], r->tri[1], r->tri[2]);
+    tmesh_init(&m, "same winding");
+    tmesh_add(&m, r, 0, 1, 1);
+    if (weld_ok(&m, &w)) CHECK(w.back_count == 0 && w.triangle_count == 33, "backs %u", w.back_count);
+    weld_free(&w);
+    r->tcount = 32;
+    add_reversed(r, r, 0, 32, 0, 0);
+    add_reversed(r, r, 0, 1, 0, 0);
+    tmesh_init(&m, "three layers");
+    tmesh_add(&m, r, 0, 1, 1);
+    if (weld_ok(&m, &w))
+        CHECK(w.back_count == 32 && w.triangle_count == 33 && w.triangle_back[32] == WELD_NO_BACK,
+              "backs %u, topology %u", w.back_count, w.triangle_count);
+    weld_free(&w);
+    free(b);
+    free(c);
+    free(front);
+    free(h);
+    free(sd);
+    free(r);
+}
+
 static void test_degenerate(void)
 {
     pbuf *b = pbuf_new();
@@ -1099,5 +1297,6 @@ int main(void)
     RUN(test_deterministic);
     RUN(test_threads_same_result);
     RUN(test_collapse_rules);
+    RUN(test_double_sided);
     return check_summary();
 }
