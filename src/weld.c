@@ -19,8 +19,9 @@
  *   pair_edges         opposite edge / border / non-manifold (per vertex, from
  *                      the vertex-triangle lists)
  *   mark_seams         seam flag of manifold interior edges
- *   take_backs         reversed repeats out of the topology, as backs
  *   classify_vertices  walk each umbrella, apply the kind rules
+ *   take_backs         reversed repeats out of the topology, as backs (only
+ *                      when it has a non-manifold edge; then built again)
  *   lock_back_borders  where backs start, stop or change primitive
  *   find_dangling      dropped triangles that may lie off the surface
  *   keep_dangling      ... kept beside the topology, their vertices locked */
@@ -92,7 +93,7 @@ typedef struct weld_work {
     uint32_t prov_count;
     uint32_t *prov_final;    /* provisional position -> final vertex id or NONE */
     uint32_t *dangling_triangle; /* per dangling triangle: its number in its primitive */
-    int classes_done;        /* take_backs classified the wedges already */
+    int classes_done;        /* the wedge classes are made (a second build_topology keeps them) */
 } weld_work;
 
 static void work_free(weld_work *k)
@@ -688,6 +689,7 @@ static int build_topology(weld_work *k, weld_result *out, unsigned threads, lp_e
     lp_beside wedges;
     if (k->classes_done) memset(&wedges, 0, sizeof wedges);
     else lp_beside_start(&wedges, threads > 1, run_classify_wedges, &job);
+    k->classes_done = 1;
     build_vertex_triangles(out);
     lp_beside_join(&wedges);
     if (job.rc) {
@@ -749,15 +751,26 @@ static size_t back_queue_slot(const back_queues *q, uint32_t t, int parity)
     }
 }
 
+/* A triangle with a non-manifold edge: a back shares all three edges with
+ * its front, so it and the front have one unless the two are alone (a
+ * two-triangle pillow, which stays as it is). */
+static int on_nonmanifold_edge(const weld_result *out, uint32_t t)
+{
+    return ((out->edge_flags[3 * (size_t)t] | out->edge_flags[3 * (size_t)t + 1] | out->edge_flags[3 * (size_t)t + 2]) &
+            WELD_FLAG_NONMANIFOLD) != 0;
+}
+
 /* back_of[t] = the back paired with triangle t (NONE if none) and is_back[t],
- * pairing in input order: each triangle with the earliest unpaired earlier
- * one of the same vertex set and opposite winding (queues:
- * O(1) per triangle however many repeat). Returns the number of pairs, or
- * -1 when memory runs out. */
+ * pairing in input order among the triangles on a non-manifold edge: each
+ * with the earliest unpaired earlier one of the same vertex set and opposite
+ * winding (queues: O(1) per triangle however many repeat). Returns the number
+ * of pairs, or -1 when memory runs out. */
 static long pair_backs(const weld_result *out, uint32_t *back_of, uint8_t *is_back)
 {
     const uint32_t n = out->triangle_count;
-    back_queues q = {out, table_capacity(n), NULL, NULL, NULL, NULL};
+    uint32_t candidates = 0;
+    for (uint32_t t = 0; t < n; ++t) candidates += (uint32_t)on_nonmanifold_edge(out, t);
+    back_queues q = {out, table_capacity(candidates), NULL, NULL, NULL, NULL};
     q.opener = alloc_array(q.cap, sizeof *q.opener);
     q.head = alloc_array(q.cap, sizeof *q.head);
     q.tail = alloc_array(q.cap, sizeof *q.tail);
@@ -767,10 +780,11 @@ static long pair_backs(const weld_result *out, uint32_t *back_of, uint8_t *is_ba
         memset(q.opener, 0xff, q.cap * sizeof *q.opener);
         pairs = 0;
         for (uint32_t t = 0; t < n; ++t) {
-            const int parity = winding_parity(out->triangle_vertices + 3 * (size_t)t);
             back_of[t] = NONE;
             is_back[t] = 0;
             q.next[t] = NONE;
+            if (!on_nonmanifold_edge(out, t)) continue;
+            const int parity = winding_parity(out->triangle_vertices + 3 * (size_t)t);
             const size_t other = back_queue_slot(&q, t, !parity);
             if (q.opener[other] != NONE && q.head[other] != NONE) {
                 const uint32_t front = q.head[other];
@@ -855,25 +869,18 @@ static int build_back_map(weld_result *out, const uint32_t *back_of, long pairs)
 }
 
 /* Takes the backs (weld.h) out of the triangle arrays, keeping the others in
- * order, into out->back_* and out->triangle_back. Needs the wedge classes,
- * so it classifies the wedges itself when there is a pair. */
-static int take_backs(weld_work *k, weld_result *out, lp_error *err)
+ * order, into out->back_* and out->triangle_back, and builds the topology
+ * again without them. Runs after a first build_topology (its edge flags and
+ * wedge classes), and only when that found a non-manifold edge: every pair
+ * but a lone pillow has one, so a manifold mesh pays nothing. */
+static int take_backs(weld_work *k, weld_result *out, unsigned threads, lp_error *err)
 {
     const uint32_t n = out->triangle_count;
     uint32_t *back_of = alloc_array(n, sizeof *back_of);
     uint8_t *is_back = alloc_array(n, sizeof *is_back);
     long pairs = back_of && is_back ? pair_backs(out, back_of, is_back) : -1;
     int map = 0;
-    if (pairs > 0) {
-        int rc = classify_wedges(k, out, err);
-        if (rc) {
-            free(back_of);
-            free(is_back);
-            return rc;
-        }
-        k->classes_done = 1;
-        map = build_back_map(out, back_of, pairs);
-    }
+    if (pairs > 0) map = build_back_map(out, back_of, pairs);
     if (pairs < 0 || map < 0) {
         free(back_of);
         free(is_back);
@@ -915,10 +922,13 @@ static int take_backs(weld_work *k, weld_result *out, lp_error *err)
         out->triangle_count = kept;
         out->stats.triangles = kept;
         out->stats.back_triangles = backs;
+        /* the counts of the first build start again */
+        out->stats.edges = out->stats.border_edges = out->stats.nonmanifold_edges = 0;
+        out->stats.seam_edges = out->stats.nonmanifold_vertices = 0;
     }
     free(back_of);
     free(is_back);
-    return LP_OK;
+    return map == 1 ? build_topology(k, out, threads, err) : LP_OK;
 }
 
 /* A vertex where triangles with a back meet triangles without one, or with
@@ -1159,8 +1169,9 @@ int weld_build(const scene_mesh *mesh, uint32_t threads, weld_result *out, lp_er
     if (!rc) rc = allocate_result(&k, out, err);
     if (!rc) {
         fill_arrays(&k, out);
-        rc = take_backs(&k, out, err);
-        if (!rc) rc = build_topology(&k, out, lp_threads(threads, WELD_THREADS_MAX), err);
+        const unsigned topology_threads = lp_threads(threads, WELD_THREADS_MAX);
+        rc = build_topology(&k, out, topology_threads, err);
+        if (!rc && out->stats.nonmanifold_edges) rc = take_backs(&k, out, topology_threads, err);
         if (!rc) lock_back_borders(out);
     }
     if (!rc) rc = find_dangling(&k, out, err);

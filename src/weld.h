@@ -39,7 +39,11 @@
  *   primitive and material). Backs are taken out of
  *   the topology, which would otherwise see four triangles on every edge and
  *   lock the whole sheet; each front triangle has at most one back, the
- *   earliest unpaired one (input order). A level gives every face whose
+ *   earliest unpaired one (input order). Only a triangle on a non-manifold
+ *   edge can be a front or a back: a pair that shares its edges with no other
+ *   triangle (a lone two-sided triangle, a closed "pillow") stays in the
+ *   topology, where it is a closed surface of its own (and a mesh without a
+ *   non-manifold edge is welded as before, at no cost). A level gives every face whose
  *   triangle has a back a back face: the same corners in the opposite
  *   winding, in the back's primitive, each corner the back layer's wedge
  *   that faces of the front's wedge class there use (weld_back_wedge). As
