@@ -1018,6 +1018,20 @@ static void test_double_sided(void)
         CHECK(w.back_count == 32 && w.triangle_count == 33 && w.triangle_back[32] == WELD_NO_BACK,
               "backs %u, topology %u", w.back_count, w.triangle_count);
     weld_free(&w);
+    /* a lone two-sided triangle shares its edges with nothing else: a closed pillow, left as it is */
+    pbuf *pillow = pbuf_new();
+    pbuf_vertex(pillow, 0, 0, 0, NULL, NULL);
+    pbuf_vertex(pillow, 1, 0, 0, NULL, NULL);
+    pbuf_vertex(pillow, 0, 1, 0, NULL, NULL);
+    pbuf_tri(pillow, 0, 1, 2);
+    pbuf_tri(pillow, 0, 2, 1);
+    tmesh_init(&m, "pillow");
+    tmesh_add(&m, pillow, 0, 0, 0);
+    if (weld_ok(&m, &w))
+        CHECK(w.back_count == 0 && w.triangle_count == 2 && w.stats.nonmanifold_edges == 0, "backs %u, topology %u",
+              w.back_count, w.triangle_count);
+    weld_free(&w);
+    free(pillow);
     free(b);
     free(c);
     free(front);
