@@ -1268,8 +1268,12 @@ void decode_draco_primitive(gltf_doc *doc, ojson &prim, const std::string &path)
         fail(GLTF_INVALID, path + "." + kDraco + ".attributes is missing");
     uint64_t v = ext["bufferView"].get<uint64_t>();
     if (v >= doc->views.size()) fail(GLTF_INVALID, path + "." + kDraco + ".bufferView " + std::to_string(v) + " does not exist");
-    ojson &accessors = doc->json["accessors"];
-    const size_t accessor_count = accessors.is_array() ? accessors.size() : 0;
+    // find, not []: in a file without "accessors", [] would add the member, and the root
+    // object's members (an ordered_map, copied when it grows) would move: prim and ext,
+    // references into "meshes", would then point at freed memory
+    auto found = doc->json.find("accessors");
+    ojson *accessors = found != doc->json.end() && found->is_array() ? &*found : nullptr;
+    const size_t accessor_count = accessors ? accessors->size() : 0;
     char why[256] = "";
     draco_mesh *mesh = nullptr;
     if (draco_decode_mesh(doc->views[v].ptr, doc->views[v].size, &mesh, why, sizeof why) != 0)
@@ -1280,7 +1284,7 @@ void decode_draco_primitive(gltf_doc *doc, ojson &prim, const std::string &path)
     if (prim.contains("indices")) {
         uint64_t a = prim["indices"].get<uint64_t>();
         if (a >= accessor_count) fail(GLTF_INVALID, path + ".indices " + std::to_string(a) + " does not exist");
-        ojson &acc = accessors[a];
+        ojson &acc = (*accessors)[a];
         int ctype = int(u64(acc, "componentType", 0));
         int size = component_size(ctype);
         if (ctype != 5121 && ctype != 5123 && ctype != 5125) fail(GLTF_INVALID, at("accessors", a) + " has an invalid index componentType");
@@ -1305,7 +1309,7 @@ void decode_draco_primitive(gltf_doc *doc, ojson &prim, const std::string &path)
             fail(GLTF_INVALID, path + ": Draco attribute " + it.key() + " is not an attribute of the primitive");
         uint64_t a = attr->get<uint64_t>();
         if (a >= accessor_count) fail(GLTF_INVALID, path + ".attributes." + it.key() + " accessor does not exist");
-        ojson &acc = accessors[a];
+        ojson &acc = (*accessors)[a];
         if (acc.contains("bufferView")) continue; // already decoded (accessor shared by primitives)
         int ctype = int(u64(acc, "componentType", 0)), is_matrix = 0;
         int comps = type_components(acc.value("type", std::string()), &is_matrix);
