@@ -596,30 +596,90 @@ fail:
     return lp_fail(err, LP_USAGE, "%.100s %.100s: %s", name, text, problem);
 }
 
-int config_check(const lp_config *config, lp_error *err)
+/* The keys each rule is about, for config_rule_line (NULL-terminated). */
+static const char *const kRuleKeys[][4] = {
+    [CONFIG_RULE_NONE] = {NULL},
+    [CONFIG_RULE_OPTIMAL_NEEDS_PLACEMENT] = {"lod.optimal_levels", "lod.placement", NULL},
+    [CONFIG_RULE_OPTIMAL_LEVELS_EXIST] = {"lod.optimal_levels", "lod.levels", NULL},
+    [CONFIG_RULE_PIXEL_BELOW_HEIGHT] = {"switching.pixel_error", "switching.viewport_height", NULL},
+    [CONFIG_RULE_CAMERA_FINITE] = {"switching.viewport_height", "switching.fov_y", "switching.pixel_error", NULL},
+};
+
+/* 1 when config breaks `rule`, its message then in err (when not NULL). */
+static int rule_broken(const lp_config *config, config_rule rule, lp_error *err)
 {
+    lp_error ignored;
+    if (!err) err = &ignored;
     const uint32_t set = config->lod.optimal_levels;
-    if (set && config->lod.placement != 1)
-        return lp_fail(err, LP_USAGE, "lod.optimal_levels (--optimal-levels) applies only with lod.placement = "
-                                      "\"optimal\" (--placement optimal)");
-    for (uint32_t k = (uint32_t)config->lod.level_count; k < 32; ++k)
-        if (set >> k & 1u)
-            return lp_fail(err, LP_USAGE, "lod.optimal_levels (--optimal-levels) names level %u, but lod.levels has %zu",
-                           k + 1, config->lod.level_count);
+    const double p = config->switching.pixel_error, h = config->switching.viewport_height;
+    switch (rule) {
+    case CONFIG_RULE_NONE:
+    case CONFIG_RULE_COUNT:
+        return 0;
+    case CONFIG_RULE_OPTIMAL_NEEDS_PLACEMENT:
+        if (!set || config->lod.placement == 1) return 0;
+        lp_fail(err, LP_USAGE, "lod.optimal_levels (--optimal-levels) applies only with lod.placement = "
+                               "\"optimal\" (--placement optimal)");
+        return 1;
+    case CONFIG_RULE_OPTIMAL_LEVELS_EXIST:
+        for (uint32_t k = (uint32_t)config->lod.level_count; k < 32; ++k)
+            if (set >> k & 1u) {
+                lp_fail(err, LP_USAGE, "lod.optimal_levels (--optimal-levels) names level %u, but lod.levels has %zu",
+                        k + 1, config->lod.level_count);
+                return 1;
+            }
+        return 0;
     /* the camera must give every level a finite switching distance and a
      * cull coverage below 1 (switching.h), or the written thresholds would
      * not run from the finest level to the coarsest */
-    const double p = config->switching.pixel_error, h = config->switching.viewport_height;
-    if (!(p < h))
-        return lp_fail(err, LP_USAGE, "switching.pixel_error (--pixel-error) %g must be below switching.viewport_height "
-                                      "(--viewport-height) %g: every node would be culled", p, h);
-    const double per_error = h / (2.0 * tan(config->switching.fov_y / 2.0) * p);
-    if (!(per_error <= SWITCHING_MAX_DISTANCE_PER_ERROR))
-        return lp_fail(err, LP_USAGE, "switching.viewport_height (--viewport-height) %g with switching.fov_y (--fov-y) "
-                                      "%g and switching.pixel_error (--pixel-error) %g puts the switching distance "
-                                      "beyond %g times a level's error",
-                       h, config->switching.fov_y, p, SWITCHING_MAX_DISTANCE_PER_ERROR);
-    return LP_OK;
+    case CONFIG_RULE_PIXEL_BELOW_HEIGHT:
+        if (p < h) return 0;
+        lp_fail(err, LP_USAGE, "switching.pixel_error (--pixel-error) %g must be below switching.viewport_height "
+                               "(--viewport-height) %g: every node would be culled", p, h);
+        return 1;
+    case CONFIG_RULE_CAMERA_FINITE:
+        if (h / (2.0 * tan(config->switching.fov_y / 2.0) * p) <= SWITCHING_MAX_DISTANCE_PER_ERROR) return 0;
+        lp_fail(err, LP_USAGE, "switching.viewport_height (--viewport-height) %g with switching.fov_y (--fov-y) "
+                               "%g and switching.pixel_error (--pixel-error) %g puts the switching distance "
+                               "beyond %g times a level's error",
+                h, config->switching.fov_y, p, SWITCHING_MAX_DISTANCE_PER_ERROR);
+        return 1;
+    }
+    return 0;
+}
+
+config_rule config_broken_rule(const lp_config *config, lp_error *err)
+{
+    for (int r = CONFIG_RULE_NONE + 1; r < CONFIG_RULE_COUNT; ++r)
+        if (rule_broken(config, (config_rule)r, err)) return (config_rule)r;
+    return CONFIG_RULE_NONE;
+}
+
+int config_breaks(const lp_config *config, config_rule rule)
+{
+    return rule_broken(config, rule, NULL);
+}
+
+int config_check(const lp_config *config, lp_error *err)
+{
+    return config_broken_rule(config, err) == CONFIG_RULE_NONE ? LP_OK : LP_USAGE;
+}
+
+uint32_t config_rule_line(const char *path, config_rule rule)
+{
+    char why[400];
+    toml_io_doc *doc = NULL;
+    if ((unsigned)rule >= CONFIG_RULE_COUNT || toml_io_parse_file(path, &doc, why, sizeof why) != TOML_IO_OK) return 0;
+    uint32_t line = 0;
+    const size_t count = toml_io_count(doc);
+    for (size_t i = 0; i < count; ++i) {
+        toml_io_entry e;
+        toml_io_get(doc, i, &e);
+        for (const char *const *key = kRuleKeys[rule]; *key; ++key)
+            if (strcmp(e.key, *key) == 0 && e.line > line) line = e.line;
+    }
+    toml_io_free(doc);
+    return line;
 }
 
 /* ---- comparing and writing ------------------------------------------------ */

@@ -143,6 +143,28 @@ int config_set(lp_config *config, const char *name, const char *value_text, lp_e
  * Returns LP_OK, or LP_USAGE with err filled. */
 int config_check(const lp_config *config, lp_error *err);
 
+/* The rules config_check tests, in its order, by the keys they are about. */
+typedef enum config_rule {
+    CONFIG_RULE_NONE = 0,
+    CONFIG_RULE_OPTIMAL_NEEDS_PLACEMENT, /* lod.optimal_levels, lod.placement */
+    CONFIG_RULE_OPTIMAL_LEVELS_EXIST,    /* lod.optimal_levels, lod.levels */
+    CONFIG_RULE_PIXEL_BELOW_HEIGHT,      /* switching.pixel_error, switching.viewport_height */
+    CONFIG_RULE_CAMERA_FINITE,           /* switching.viewport_height, fov_y, pixel_error */
+    CONFIG_RULE_COUNT
+} config_rule;
+
+/* The first rule `config` breaks (CONFIG_RULE_NONE when it breaks none), with
+ * config_check's message in err when err is not NULL. */
+config_rule config_broken_rule(const lp_config *config, lp_error *err);
+
+/* 1 when `config` breaks `rule`, else 0. */
+int config_breaks(const lp_config *config, config_rule rule);
+
+/* The line of the TOML file at `path` that sets the last (by line) of the
+ * keys `rule` is about, for an error naming where the file breaks it; 0 when
+ * the file sets none of them or cannot be read. */
+uint32_t config_rule_line(const char *path, config_rule rule);
+
 /* Is `flag` one of the flags above? Returns 0 if not; 1 for a flag that takes
  * the next argument as its value; 2 for a switch that takes none (--draco). */
 int config_flag(const char *flag);

@@ -1308,12 +1308,16 @@ static int parse(int argc, char **argv, cli *c)
      * the config file when the file breaks it on its own (the flags did not
      * mend it), else the command line (the message names key and flag) */
     if (!rc && (rc = config_check(&c->config, &err)) != 0) {
+        const config_rule rule = config_broken_rule(&c->config, NULL);
         lp_config file_only;
         lp_error ignored = {0, ""};
         config_defaults(&file_only);
         const int file_alone = c->config_path && config_load(&file_only, c->config_path, &ignored) == 0 &&
-                               config_check(&file_only, &ignored) != 0;
-        if (file_alone || !c->config_path) lp_say("%s: %s", file_alone ? c->config_path : "the command line", err.msg);
+                               config_breaks(&file_only, rule);
+        /* the file's line that sets the last of the rule's keys, as for a bad key */
+        const uint32_t line = file_alone ? config_rule_line(c->config_path, rule) : 0;
+        if (line) lp_say("%s:%u: %s", c->config_path, (unsigned)line, err.msg);
+        else if (file_alone || !c->config_path) lp_say("%s: %s", file_alone ? c->config_path : "the command line", err.msg);
         else lp_say("the command line (with %s): %s", c->config_path, err.msg);
     }
     free(config_args);

@@ -1034,6 +1034,11 @@ test('the end of a run: stops between renames, the depfile, exit codes, batch er
     assert.deepEqual(refusalProblems(both, 1, 'the command line (with ', dir, ['camera.toml', 'out.glb']), [], describeRun(both));
     const file = runLodpipe([DUCK, '-o', out, '--config', config, '--viewport-height', '720', '--pixel-error', '1']);
     assert.equal(file.status, 0, `the flag mends the file: ${describeRun(file)}`);
+    // a rule the file breaks on its own names the file and the line of the last key it involves (QA: no line)
+    const own = path.join(dir, 'camera_own.toml');
+    fs.writeFileSync(own, '# a camera\n[switching]\nviewport_height = 720\npixel_error = 800\n');
+    const alone = runLodpipe([DUCK, '-o', out, '--config', own]);
+    assert.deepEqual(refusalProblems(alone, 1, 'camera_own.toml:4: switching.pixel_error', dir, ['camera.toml', 'camera_own.toml', 'out.glb']), [], describeRun(alone));
   });
 });
 

@@ -590,6 +590,24 @@ static void test_config_check(void)
           "levels 3,4 of 2: %s", err.msg);
     CHECK(config_set(&c, "--optimal-levels", "2", &err) == LP_OK && config_check(&c, &err) == LP_OK, "level 2 of 2: %s",
           err.msg);
+
+    /* which rule, and where a file breaks it: the line of the last of its keys */
+    CHECK(config_broken_rule(&c, NULL) == CONFIG_RULE_NONE, "no rule broken");
+    CHECK(config_set(&c, "--pixel-error", "2000", &err) == LP_OK, "set");
+    CHECK(config_broken_rule(&c, &err) == CONFIG_RULE_PIXEL_BELOW_HEIGHT && strstr(err.msg, "every node would be culled") &&
+              config_breaks(&c, CONFIG_RULE_PIXEL_BELOW_HEIGHT) && !config_breaks(&c, CONFIG_RULE_OPTIMAL_LEVELS_EXIST),
+          "pixel error above the height: %s", err.msg);
+    char path[64];
+    if (write_temp("[switching]\nviewport_height = 720\n\n[lod]\nlevels = [1, 3]\n\n[switching.x]\n", path) == 0) {
+        CHECK(config_rule_line(path, CONFIG_RULE_PIXEL_BELOW_HEIGHT) == 2, "viewport_height on line 2: %u",
+              config_rule_line(path, CONFIG_RULE_PIXEL_BELOW_HEIGHT));
+        CHECK(config_rule_line(path, CONFIG_RULE_OPTIMAL_LEVELS_EXIST) == 5, "levels on line 5: %u",
+              config_rule_line(path, CONFIG_RULE_OPTIMAL_LEVELS_EXIST));
+        CHECK(config_rule_line(path, CONFIG_RULE_OPTIMAL_NEEDS_PLACEMENT) == 0, "neither key set: %u",
+              config_rule_line(path, CONFIG_RULE_OPTIMAL_NEEDS_PLACEMENT));
+        unlink(path);
+    }
+    CHECK(config_rule_line("/nonexistent/pipeline.toml", CONFIG_RULE_PIXEL_BELOW_HEIGHT) == 0, "unreadable: 0");
 }
 
 /* ---- canonical text --------------------------------------------------------- */
