@@ -11,6 +11,11 @@ embedded as data: uris and its external images replaced by a 4-byte stand-in
 (images are passed through, never decoded). The pipeline corpus keeps only
 files with at most PIPELINE_MAX_TRIANGLES triangles in the manifest (or no
 count: invalid and generated files), matching the harness's own cap.
+Each pipeline seed that is a GLB with indexed triangle primitives also gets
+two-sided twins, so that the weld's back faces are fuzzed: '.double' with a
+reversed copy of every triangle appended to its primitive, '.partial' with
+reversed copies of the first half of each primitive's triangles (backs that
+stop part-way). A twin is kept when it stays within the triangle cap.
 File names are the source path with '/' as '__', so reruns overwrite.
 
 Every seed naming EXT_meshopt_compression also gets KHR twins (the ratified
@@ -130,6 +135,62 @@ def khr_twins(data):
     return twins
 
 
+INDEX_FORMATS = {5121: 'B', 5123: 'H', 5125: 'I'}
+
+
+def two_sided_variant(data, share):
+    """The GLB with, in every indexed triangle primitive, reversed copies of
+    the first `share` (0..1] of its triangles appended as a new uint32
+    index accessor, and the number of triangles it then has; None when the
+    file is not such a GLB or has no such primitive."""
+    chunks = glb_chunks(data)
+    if not chunks or len(chunks) < 2 or chunks[1][0] != 0x004E4942:
+        return None
+    try:
+        doc = json.loads(chunks[0][1])
+        accessors, views = doc['accessors'], doc['bufferViews']
+        bin_chunk = bytearray(chunks[1][1])
+        triangles, changed = 0, 0
+        for mesh in doc['meshes']:
+            for prim in mesh['primitives']:
+                acc = accessors[prim['indices']] if prim.get('mode', 4) == 4 and 'indices' in prim else None
+                view = views[acc['bufferView']] if acc and 'bufferView' in acc and 'sparse' not in acc else None
+                if not view or view.get('buffer') != 0 or 'byteStride' in view or acc['componentType'] not in INDEX_FORMATS:
+                    continue
+                fmt = INDEX_FORMATS[acc['componentType']]
+                start = view.get('byteOffset', 0) + acc.get('byteOffset', 0)
+                count = acc['count'] - acc['count'] % 3
+                idx = list(struct.unpack_from('<%d%s' % (count, fmt), bin_chunk, start))
+                tris = [idx[i:i + 3] for i in range(0, count, 3)]
+                idx += [x for t in tris[:int(len(tris) * share)] for x in (t[0], t[2], t[1])]
+                triangles += len(idx) // 3
+                bin_chunk += bytes(-len(bin_chunk) % 4)
+                views.append({'buffer': 0, 'byteOffset': len(bin_chunk), 'byteLength': 4 * len(idx)})
+                bin_chunk += struct.pack('<%dI' % len(idx), *idx)
+                accessors.append({'bufferView': len(views) - 1, 'componentType': 5125, 'count': len(idx),
+                                  'type': 'SCALAR'})
+                prim['indices'] = len(accessors) - 1
+                changed += 1
+        if not changed:
+            return None
+        doc['buffers'][0]['byteLength'] = len(bin_chunk)
+    except (ValueError, KeyError, IndexError, TypeError, AttributeError, struct.error):
+        return None  # not the plain shape this variant handles
+    text = json.dumps(doc, separators=(',', ':')).encode()
+    text += b' ' * (-len(text) % 4)
+    return glb_of([(chunks[0][0], text), (chunks[1][0], bytes(bin_chunk))] + chunks[2:]), triangles
+
+
+def two_sided_twins(data):
+    """(suffix, bytes) of the two-sided seeds made from one pipeline seed."""
+    twins = []
+    for suffix, share in (('.double', 1.0), ('.partial', 0.5)):
+        made = two_sided_variant(data, share)
+        if made and made[1] <= PIPELINE_MAX_TRIANGLES and len(made[0]) <= MAX_BYTES:
+            twins.append((suffix, made[0]))
+    return twins
+
+
 def triangle_counts(assets):
     try:
         manifest = json.load(open(os.path.join(assets, 'manifest.json')))
@@ -162,7 +223,8 @@ def main():
                 if tris is None or tris <= PIPELINE_MAX_TRIANGLES:
                     targets.append('pipeline')
                 for sub in targets:
-                    for suffix, seed_data in [('', data)] + khr_twins(data):
+                    twins = khr_twins(data) + (two_sided_twins(data) if sub == 'pipeline' else [])
+                    for suffix, seed_data in [('', data)] + twins:
                         with open(os.path.join(out, sub, seed + suffix), 'wb') as f:
                             f.write(seed_data)
                         written[sub] += 1
