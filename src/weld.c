@@ -820,14 +820,16 @@ static int compare_back_map_entries(const void *a, const void *b)
     return (x->wedge > y->wedge) - (x->wedge < y->wedge);
 }
 
-/* The back layer's wedge class for each (front wedge class, back primitive)
- * of the pairs, into out->back_map_*. Returns 1 when every such key has one
- * back class (stored), 0 when some key has two (nothing stored), -1 when
- * memory runs out. */
-static int build_back_map(weld_result *out, const uint32_t *back_of, long pairs)
+/* The key of corner c of front f paired with back b: the front's wedge class
+ * and the back's primitive. */
+static uint64_t corner_back_key(const weld_result *out, uint32_t f, int c, uint32_t b)
 {
-    back_map_entry *e = alloc_array(3 * (size_t)pairs, sizeof *e);
-    if (!e) return -1;
+    return (uint64_t)out->wedge_class[out->triangle_wedges[3 * (size_t)f + (size_t)c]] << 32 | out->triangle_primitive[b];
+}
+
+/* The map's entries of the pairs, sorted, into e (3 per pair). */
+static size_t back_map_entries(const weld_result *out, const uint32_t *back_of, back_map_entry *e)
+{
     size_t n = 0;
     for (uint32_t f = 0; f < out->triangle_count; ++f) {
         const uint32_t b = back_of[f];
@@ -836,22 +838,70 @@ static int build_back_map(weld_result *out, const uint32_t *back_of, long pairs)
             const uint32_t vertex = out->triangle_vertices[3 * (size_t)f + (size_t)c];
             int bc = 0;
             while (out->triangle_vertices[3 * (size_t)b + (size_t)bc] != vertex) bc++;
-            e[n].key = (uint64_t)out->wedge_class[out->triangle_wedges[3 * (size_t)f + (size_t)c]] << 32 |
-                       out->triangle_primitive[b];
+            e[n].key = corner_back_key(out, f, c, b);
             e[n++].wedge = out->wedge_class[out->triangle_wedges[3 * (size_t)b + (size_t)bc]];
         }
     }
     qsort(e, n, sizeof *e, compare_back_map_entries);
-    size_t keys = 0;
-    for (size_t i = 0; i < n; ++i) {
-        if (i && e[i].key == e[i - 1].key) {
-            if (e[i].wedge != e[i - 1].wedge) {
-                free(e);
-                return 0;
+    return n;
+}
+
+/* Unpairs every pair with a corner whose key has two back classes (an
+ * attribute seam on the back alone: the front's wedge cannot tell which back
+ * value a moved corner would carry). Such a pair stays in the topology as two
+ * triangles, its edges non-manifold and so locked, like an unpaired repeat.
+ * e holds the sorted entries; returns the number of pairs unpaired. */
+static long unpair_conflicts(const weld_result *out, uint32_t *back_of, uint8_t *is_back, back_map_entry *e, size_t n)
+{
+    size_t conflicts = 0; /* their keys, compacted to the front of e */
+    for (size_t i = 1; i < n; ++i)
+        if (e[i].key == e[i - 1].key && e[i].wedge != e[i - 1].wedge &&
+            (conflicts == 0 || e[conflicts - 1].key != e[i].key))
+            e[conflicts++].key = e[i].key;
+    long unpaired = 0;
+    for (uint32_t f = 0; f < out->triangle_count && conflicts; ++f) {
+        const uint32_t b = back_of[f];
+        if (b == NONE) continue;
+        for (int c = 0; c < 3; ++c) {
+            const uint64_t key = corner_back_key(out, f, c, b);
+            size_t lo = 0, hi = conflicts;
+            while (lo < hi) {
+                const size_t mid = lo + (hi - lo) / 2;
+                if (e[mid].key < key) lo = mid + 1;
+                else hi = mid;
             }
-            continue;
+            if (lo < conflicts && e[lo].key == key) {
+                back_of[f] = NONE;
+                is_back[b] = 0;
+                unpaired++;
+                break;
+            }
         }
-        e[keys++] = e[i];
+    }
+    return unpaired;
+}
+
+/* The back layer's wedge class for each (front wedge class, back primitive)
+ * of the pairs, into out->back_map_*, after unpairing the pairs whose keys
+ * would have two (*pairs is what remains). Returns 1 when pairs remain (the
+ * map stored), 0 when none does, -1 when memory runs out. */
+static int build_back_map(weld_result *out, uint32_t *back_of, uint8_t *is_back, long *pairs)
+{
+    back_map_entry *e = alloc_array(3 * (size_t)*pairs, sizeof *e);
+    if (!e) return -1;
+    size_t n = back_map_entries(out, back_of, e);
+    const long unpaired = unpair_conflicts(out, back_of, is_back, e, n);
+    if (unpaired) {
+        /* the keys left were never in conflict: fewer pairs cannot make one */
+        *pairs -= unpaired;
+        n = back_map_entries(out, back_of, e);
+    }
+    size_t keys = 0;
+    for (size_t i = 0; i < n; ++i)
+        if (!i || e[i].key != e[i - 1].key) e[keys++] = e[i];
+    if (!keys) {
+        free(e);
+        return 0;
     }
     out->back_map_key = alloc_array(keys, sizeof *out->back_map_key);
     out->back_map_wedge = alloc_array(keys, sizeof *out->back_map_wedge);
@@ -880,7 +930,7 @@ static int take_backs(weld_work *k, weld_result *out, unsigned threads, lp_error
     uint8_t *is_back = alloc_array(n, sizeof *is_back);
     long pairs = back_of && is_back ? pair_backs(out, back_of, is_back) : -1;
     int map = 0;
-    if (pairs > 0) map = build_back_map(out, back_of, pairs);
+    if (pairs > 0) map = build_back_map(out, back_of, is_back, &pairs);
     if (pairs < 0 || map < 0) {
         free(back_of);
         free(is_back);

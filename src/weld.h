@@ -57,8 +57,9 @@
  *   face never grows over ground whose back was different); and when the
  *   back layer's wedge at some vertex is not decided by the front's wedge
  *   class there and the back primitive (the back has an attribute seam the
- *   front lacks), the mesh gets no backs at all (they stay in the topology,
- *   as before this rule: locked, kept);
+ *   front lacks), the pairs with a corner there are no backs: both stay in
+ *   the topology (their edges non-manifold: locked, kept), and the other
+ *   pairs stay backs (no corner of theirs has that key, so none conflicts);
  * - adjacency: for each position vertex the triangles around it (CSR), and
  *   for each triangle edge the opposite edge, or a border / non-manifold
  *   marker, plus a seam flag;
