@@ -136,20 +136,30 @@ static void level_boxes(const scene_mesh *mesh, const weld_result *w, const simp
     }
 }
 
-/* The largest grid bound over the primitives at `bits`. Integer positions
- * are stored losslessly, unless `placed`: a level that placed vertices writes
- * them as a float POSITION accessor of its own (lodchain.c), quantized. */
+/* The bound of the level's grid at `bits`: one grid for all its quantized
+ * primitives, over the union of their boxes, so that a position two
+ * primitives share (a material seam, a back face's corner) decodes to the
+ * same point in both: a grid per primitive would open cracks between them.
+ * Integer positions are stored losslessly, unless `placed`: a level that
+ * placed vertices writes them as a float POSITION accessor of its own
+ * (lodchain.c), quantized. 0 when nothing is quantized. */
 static double boxes_bound(const scene *s, const scene_mesh *mesh, const double *lo, const double *hi,
                           const uint8_t *used, int bits, int placed)
 {
-    double worst = 0;
+    double ulo[3] = {INFINITY, INFINITY, INFINITY}, uhi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    int any = 0;
     for (uint32_t p = 0; p < mesh->primitive_count; ++p) {
         if (!used[p] || (!placed && !float_positions(s, &mesh->primitives[p]))) continue;
-        dracoout_grid g;
-        dracoout_grid_of(lo + 3 * p, hi + 3 * p, bits, &g);
-        if (g.bound > worst) worst = g.bound;
+        any = 1;
+        for (int c = 0; c < 3; ++c) {
+            if (lo[3 * p + c] < ulo[c]) ulo[c] = lo[3 * p + c];
+            if (hi[3 * p + c] > uhi[c]) uhi[c] = hi[3 * p + c];
+        }
     }
-    return worst;
+    if (!any) return 0;
+    dracoout_grid g;
+    dracoout_grid_of(ulo, uhi, bits, &g);
+    return g.bound;
 }
 
 int dracoout_budget(const scene *s, uint32_t m, const dracoout_options *o, double smallest_eps, int placing,
@@ -358,6 +368,12 @@ static int bits_of(draco_semantic s, const dracoout_options *o, int position_bit
     }
 }
 
+/* The box of the float positions a level's quantized primitives use: the
+ * level's one position grid (boxes_bound). */
+typedef struct level_box {
+    double lo[3], hi[3];
+} level_box;
+
 /* One primitive's data, compacted to the vertices its triangles use. */
 typedef struct packed_primitive {
     uint32_t point_count, face_count;
@@ -393,7 +409,7 @@ static uint8_t *gather(const uint8_t *raw, uint32_t elem, const uint32_t *points
 
 static int pack_primitive(const gltf_doc *doc, const gltf_primitive *g, const uint32_t *triangles,
                           uint32_t triangle_count, uint32_t vertex_count, const dracoout_options *o, int position_bits,
-                          packed_primitive *pp, lp_error *err)
+                          const double box_lo[3], const double box_hi[3], packed_primitive *pp, lp_error *err)
 {
     memset(pp, 0, sizeof *pp);
     pp->position = -1;
@@ -451,13 +467,11 @@ static int pack_primitive(const gltf_doc *doc, const gltf_primitive *g, const ui
     if (pp->position < 0) return lp_fail(err, LP_INVALID, "a primitive without POSITION cannot be Draco-compressed");
     draco_encode_attribute *pos = &pp->attributes[pp->position];
     if (pos->gltf_component_type == 5126 && pos->components == 3) {
-        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
         const float *x = (const float *)(const void *)pp->values[pp->position];
-        for (size_t i = 0; i < 3 * (size_t)pp->point_count; ++i) {
-            if (x[i] < lo[i % 3]) lo[i % 3] = x[i];
-            if (x[i] > hi[i % 3]) hi[i % 3] = x[i];
-        }
-        dracoout_grid_of(lo, hi, position_bits, &pp->grid);
+        for (size_t i = 0; i < 3 * (size_t)pp->point_count; ++i)
+            if (!(x[i] >= box_lo[i % 3] && x[i] <= box_hi[i % 3]))
+                return lp_fail(err, LP_PROMISE, "Draco: a position lies outside its level's grid box");
+        dracoout_grid_of(box_lo, box_hi, position_bits, &pp->grid);
         pos->explicit_grid = 1;
         memcpy(pos->origin, pp->grid.origin, sizeof pp->grid.origin);
         pos->range = pp->grid.range;
@@ -644,12 +658,13 @@ static int write_primitive(gltf_doc *doc, uint32_t mesh, uint32_t prim, const gl
 /* Encodes primitive prim of document mesh `mesh` with the given triangles. */
 static int encode_primitive(scene *s, uint32_t mesh, uint32_t prim, const uint32_t *triangles, uint32_t triangle_count,
                             uint32_t vertex_count, const dracoout_options *o, const dracoout_plan *plan,
-                            double allowed, dracoout_stats *stats, lp_error *err)
+                            const level_box *box, double allowed, dracoout_stats *stats, lp_error *err)
 {
     gltf_primitive g;
     gltf_get_primitive(s->doc, mesh, prim, &g);
     packed_primitive pp;
-    int rc = pack_primitive(s->doc, &g, triangles, triangle_count, vertex_count, o, plan->position_bits, &pp, err);
+    int rc = pack_primitive(s->doc, &g, triangles, triangle_count, vertex_count, o, plan->position_bits, box->lo,
+                            box->hi, &pp, err);
     /* the grid of the data we encode must be the one the plan bounded */
     if (!rc && pp.grid.bound > allowed * (1 + 1e-12))
         rc = lp_fail(err, LP_PROMISE, "meshes[%u].primitives[%u]: Draco grid bound %.9g exceeds the planned %.9g", mesh,
@@ -675,6 +690,88 @@ static int encode_primitive(scene *s, uint32_t mesh, uint32_t prim, const uint32
     return rc;
 }
 
+/* The triangles (as indices) of primitive p of document mesh `lod` that the
+ * chain encodes, and its vertex count; 0 with *idx NULL for a primitive that
+ * stays as it is (points, lines, no indices or POSITION). */
+static int level_primitive(const scene *s, uint32_t lod, uint32_t p, uint32_t **idx, uint32_t *n,
+                           uint32_t *vertex_count, lp_error *err)
+{
+    *idx = NULL;
+    *n = 0;
+    gltf_primitive g;
+    gltf_get_primitive(s->doc, lod, p, &g);
+    const int64_t position = gltf_primitive_attribute(&g, "POSITION");
+    if (g.mode != 4 || g.indices < 0 || position < 0) return LP_OK;
+    gltf_accessor acc;
+    gltf_get_accessor(s->doc, (size_t)position, &acc);
+    *vertex_count = (uint32_t)acc.count;
+    int rc = accessor_read_indices(s->doc, g.indices, (uint32_t)acc.count, idx, n, err);
+    if (!rc && *n < 3) {
+        free(*idx);
+        *idx = NULL;
+        *n = 0;
+    }
+    return rc;
+}
+
+/* Adds the float positions that triangles of primitive p of document mesh
+ * `mesh` use to the box (integer positions are stored losslessly, off the
+ * grid). */
+static int box_add_primitive(const scene *s, uint32_t mesh, uint32_t p, const uint32_t *triangles,
+                             uint32_t triangle_count, level_box *box, lp_error *err)
+{
+    gltf_primitive g;
+    gltf_get_primitive(s->doc, mesh, p, &g);
+    const int64_t position = gltf_primitive_attribute(&g, "POSITION");
+    gltf_accessor acc;
+    if (position < 0 || gltf_get_accessor(s->doc, (size_t)position, &acc) != 0 || acc.component_type != 5126 ||
+        acc.components != 3)
+        return LP_OK;
+    uint8_t *raw = NULL;
+    uint32_t count = 0, elem = 0;
+    int rc = accessor_read_raw(s->doc, position, &raw, &count, &elem, err);
+    if (rc) return rc;
+    for (size_t i = 0; i < 3 * (size_t)triangle_count; ++i) {
+        if (triangles[i] >= count) continue; /* pack_primitive reports it */
+        float x[3];
+        memcpy(x, raw + (size_t)triangles[i] * elem, sizeof x);
+        for (int c = 0; c < 3; ++c) {
+            if (x[c] < box->lo[c]) box->lo[c] = x[c];
+            if (x[c] > box->hi[c]) box->hi[c] = x[c];
+        }
+    }
+    free(raw);
+    return LP_OK;
+}
+
+static void box_empty(level_box *box)
+{
+    for (int c = 0; c < 3; ++c) {
+        box->lo[c] = INFINITY;
+        box->hi[c] = -INFINITY;
+    }
+}
+
+/* Encodes the primitives of a level mesh of the chain on one grid. */
+static int write_level(scene *s, uint32_t lod, const dracoout_options *o, const dracoout_plan *plan, double allowed,
+                       dracoout_stats *stats, lp_error *err)
+{
+    const uint32_t count = gltf_primitive_count(s->doc, lod);
+    level_box box;
+    box_empty(&box);
+    int rc = LP_OK;
+    for (int pass = 0; pass < 2 && !rc; ++pass)
+        for (uint32_t p = 0; p < count && !rc; ++p) {
+            uint32_t *idx = NULL, n = 0, vertex_count = 0;
+            rc = level_primitive(s, lod, p, &idx, &n, &vertex_count, err);
+            if (!rc && idx)
+                rc = pass == 0 ? box_add_primitive(s, lod, p, idx, n / 3, &box, err)
+                               : encode_primitive(s, lod, p, idx, n / 3, vertex_count, o, plan, &box, allowed, stats, err);
+            free(idx);
+        }
+    return rc;
+}
+
 int dracoout_write_mesh(scene *s, uint32_t m, const lodchain_summary *chain, const dracoout_options *o,
                         const dracoout_plan *plan, dracoout_stats *stats, lp_error *err)
 {
@@ -683,27 +780,18 @@ int dracoout_write_mesh(scene *s, uint32_t m, const lodchain_summary *chain, con
     gltf_sync_mesh_records(s->doc); /* the level meshes lodchain appended */
     /* levels first: their vertex accessors are LOD0's, shared until LOD0 goes
      * last and can rewrite them in place */
-    for (uint32_t k = 0; chain && k < chain->level_count && !rc; ++k) {
-        const uint32_t lod = (uint32_t)chain->levels[k].mesh;
-        const double allowed = plan->added_error[chain->levels[k].ladder_level];
-        for (uint32_t p = 0; p < gltf_primitive_count(s->doc, lod) && !rc; ++p) {
-            gltf_primitive g;
-            gltf_get_primitive(s->doc, lod, p, &g);
-            const int64_t position = gltf_primitive_attribute(&g, "POSITION");
-            if (g.mode != 4 || g.indices < 0 || position < 0) continue; /* points, lines, skipped: as they are */
-            gltf_accessor acc;
-            gltf_get_accessor(s->doc, (size_t)position, &acc);
-            uint32_t *idx = NULL, n = 0;
-            rc = accessor_read_indices(s->doc, g.indices, (uint32_t)acc.count, &idx, &n, err);
-            if (!rc && n >= 3)
-                rc = encode_primitive(s, lod, p, idx, n / 3, (uint32_t)acc.count, o, plan, allowed, stats, err);
-            free(idx);
-        }
-    }
+    for (uint32_t k = 0; chain && k < chain->level_count && !rc; ++k)
+        rc = write_level(s, (uint32_t)chain->levels[k].mesh, o, plan, plan->added_error[chain->levels[k].ladder_level],
+                         stats, err);
+    level_box box;
+    box_empty(&box);
+    for (uint32_t p = 0; p < mesh->primitive_count && !rc; ++p)
+        if (encodable(&mesh->primitives[p]))
+            rc = box_add_primitive(s, m, p, mesh->primitives[p].triangles, mesh->primitives[p].triangle_count, &box, err);
     for (uint32_t p = 0; p < mesh->primitive_count && !rc; ++p) {
         const scene_primitive *pr = &mesh->primitives[p];
         if (!encodable(pr)) continue;
-        rc = encode_primitive(s, m, p, pr->triangles, pr->triangle_count, pr->vertex_count, o, plan,
+        rc = encode_primitive(s, m, p, pr->triangles, pr->triangle_count, pr->vertex_count, o, plan, &box,
                               plan->added_error[0], stats, err);
     }
     if (!rc && stats->primitives) gltf_use_extension(s->doc, "KHR_draco_mesh_compression", !o->fallback);

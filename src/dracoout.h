@@ -15,13 +15,15 @@
  * point of the exact triangle and back: the two-sided Hausdorff distance
  * between a decoded primitive and the exact one is at most Q. lodpipe sets
  * the grid itself (explicit quantization: o = the per-axis minimum and r =
- * the largest extent of the vertices the primitive uses, as Draco would
- * derive it), so Q is known before encoding. Integer positions
+ * the largest extent of the float vertices that the primitives of the level
+ * use, one grid for all of them so that a position two primitives share
+ * decodes to one point in both: no crack along a material seam, no back
+ * lifted off its front), so Q is known before encoding. Integer positions
  * (KHR_mesh_quantization) are stored losslessly: Q = 0.
  *
  * The chain's errors (all against the ORIGINAL, uncompressed LOD0 surface):
- * level k's decoded triangles are within Q_k (the largest Q over the level's
- * primitives, each quantized on its own grid) of the exact level, which is
+ * level k's decoded triangles are within Q_k (the Q of the level's grid)
+ * of the exact level, which is
  * within its certified bound B_k of the original, so the recorded error is
  * B_k + Q_k (triangle inequality); LOD0's recorded error is Q_0, its own
  * quantization. A level k and the decoded LOD0 of the file are then within
@@ -70,8 +72,8 @@ void dracoout_grid_of(const double lo[3], const double hi[3], int bits, dracoout
 typedef struct dracoout_plan {
     int position_bits; /* chosen for the mesh, >= the configured bits */
     int configured_bits;
-    /* per ladder level: [0] LOD0, [k] ladder level k (1-based): the largest Q
-     * over the level's primitives at position_bits. What lodchain_options's
+    /* per ladder level: [0] LOD0, [k] ladder level k (1-based): the Q of
+     * the level's grid at position_bits. What lodchain_options's
      * added_error takes. */
     double added_error[SIMPLIFY_MAX_LEVELS + 1];
 } dracoout_plan;
