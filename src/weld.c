@@ -981,20 +981,31 @@ static int take_backs(weld_work *k, weld_result *out, unsigned threads, lp_error
     return map == 1 ? build_topology(k, out, threads, err) : LP_OK;
 }
 
-/* A vertex where triangles with a back meet triangles without one, or with
- * backs of different primitives, is locked: a face that moved over it could
- * carry its back (or the lack of one) onto ground that had another. */
+/* Up to this many primitives around a vertex are told apart by
+ * lock_back_borders; a vertex with more is locked. */
+#define BACK_BORDER_PRIMITIVES 8
+
+/* A vertex where triangles of one primitive with a back meet triangles of
+ * the same primitive without one, or with backs of different primitives, is
+ * locked: a face that moved over it could carry its back (or the lack of
+ * one) onto ground that had another. Where the primitive changes too (a
+ * material seam of a mesh whose every primitive has its backs), the seam
+ * already keeps each primitive's faces on their own ground, so such a
+ * vertex keeps its kind and may slide along the seam. */
 static void lock_back_borders(weld_result *out)
 {
     if (!out->back_count) return;
     for (uint32_t v = 0; v < out->vertex_count; ++v) {
-        const uint32_t first = out->vertex_triangle_offsets[v], end = out->vertex_triangle_offsets[v + 1];
-        if (first == end) continue;
-        const uint32_t b0 = out->triangle_back[out->vertex_triangles[first]];
-        const uint32_t p0 = b0 == WELD_NO_BACK ? NONE : out->back_primitive[b0];
-        for (uint32_t i = first + 1; i < end; ++i) {
-            const uint32_t b = out->triangle_back[out->vertex_triangles[i]];
-            if ((b == WELD_NO_BACK ? NONE : out->back_primitive[b]) != p0) {
+        uint32_t primitive[BACK_BORDER_PRIMITIVES], back[BACK_BORDER_PRIMITIVES], seen = 0;
+        for (uint32_t i = out->vertex_triangle_offsets[v]; i < out->vertex_triangle_offsets[v + 1]; ++i) {
+            const uint32_t t = out->vertex_triangles[i], b = out->triangle_back[t];
+            const uint32_t p = out->triangle_primitive[t], back_primitive = b == WELD_NO_BACK ? NONE : out->back_primitive[b];
+            uint32_t j = 0;
+            while (j < seen && primitive[j] != p) j++;
+            if (j == seen && seen < BACK_BORDER_PRIMITIVES) {
+                primitive[seen] = p;
+                back[seen++] = back_primitive;
+            } else if (j == seen || back[j] != back_primitive) {
                 out->vertex_kind[v] = WELD_LOCKED;
                 break;
             }

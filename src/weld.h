@@ -52,9 +52,11 @@
  *   with a back only against originals with a back of the same material
  *   (simplify.h), so the levels' certificates hold for the back faces, per
  *   material and facing, by symmetry. Two rules keep the back
- *   layer where it was: a vertex where triangles with a back meet triangles
- *   without one, or backs of different primitives meet, is LOCKED (so a
- *   face never grows over ground whose back was different); and when the
+ *   layer where it was: a vertex where triangles of one primitive with a back
+ *   meet triangles of that primitive without one, or with backs of another
+ *   primitive, is LOCKED (so a face never grows over ground whose back was
+ *   different; where the front primitive changes as well, the seam keeps
+ *   each side on its ground); and when the
  *   back layer's wedge at some vertex is not decided by the front's wedge
  *   class there and the back primitive (the back has an attribute seam the
  *   front lacks), the pairs with a corner there are no backs: both stay in

@@ -1467,6 +1467,63 @@ static void test_materials(void)
     mesh_free(&m);
 }
 
+
+/* The decal of test_materials with every triangle again reversed in its own
+ * material (each primitive double-sided, as exporters write it): the material
+ * seam is no back border (weld.h), so each level is exactly the single decal's
+ * level plus its faces reversed - the backs take nothing from the front. */
+static void test_double_sided_decal(void)
+{
+    mesh m;
+    mesh_init(&m);
+    mesh_grid(&m, 30, 30, 0, 1, 0, 1, decal_height, NULL);
+    for (uint32_t t = 0; t < m.nt; ++t) {
+        uint32_t cell = t / 2, i = cell % 30, j = cell / 30;
+        m.mat[t] = i >= 10 && i < 20 && j >= 10 && j < 20;
+    }
+    const uint32_t front = m.nt;
+    for (uint32_t t = 0; t < front; ++t) {
+        m.cur_mat = m.mat[t];
+        mesh_tri(&m, m.tri[3 * t], m.tri[3 * t + 2], m.tri[3 * t + 1]);
+    }
+    const double fractions[3] = {0.01, 0.03, 0.07};
+    mesh single = m;
+    single.nt = front;
+    run one, two;
+    if (run_simplify(&one, &single, fractions, 3, 1, 0) == LP_OK && run_simplify(&two, &m, fractions, 3, 2, 1) == LP_OK) {
+        CHECK(two.w.back_count == front && two.w.stats.vertices_by_kind[WELD_LOCKED] == one.w.stats.vertices_by_kind[WELD_LOCKED],
+              "backs %u, locked %u (single: %u)", two.w.back_count, two.w.stats.vertices_by_kind[WELD_LOCKED],
+              one.w.stats.vertices_by_kind[WELD_LOCKED]);
+        for (uint32_t k = 0; k < 3; ++k) {
+            const simplify_level *L1 = &one.r.levels[k], *L2 = &two.r.levels[k];
+            uint64_t *expect = malloc((2 * (size_t)L1->triangle_count + 1) * sizeof *expect);
+            uint64_t *got = malloc(((size_t)L2->triangle_count + 1) * sizeof *got);
+            if (!expect || !got) abort();
+            for (uint32_t f = 0; f < L1->triangle_count; ++f)
+                for (int side = 0; side < 2; ++side)
+                    expect[2 * f + (uint32_t)side] = face_key(level_vertex(&one, k, f, 0), level_vertex(&one, k, f, 1),
+                                                              level_vertex(&one, k, f, 2), side) << 1 |
+                                                     (uint64_t)L1->primitive[f] << 63;
+            for (uint32_t f = 0; f < L2->triangle_count; ++f)
+                got[f] = face_key(level_vertex(&two, k, f, 0), level_vertex(&two, k, f, 1), level_vertex(&two, k, f, 2), 0)
+                             << 1 |
+                         (uint64_t)L2->primitive[f] << 63;
+            qsort(expect, 2 * (size_t)L1->triangle_count, sizeof *expect, compare_keys);
+            qsort(got, L2->triangle_count, sizeof *got, compare_keys);
+            CHECK(L2->triangle_count == 2 * L1->triangle_count && L1->triangle_count < front / 4 &&
+                      memcmp(expect, got, L2->triangle_count * sizeof *got) == 0,
+                  "level %u: %u faces, the single decal's %u and their reversals, in their primitives", k,
+                  L2->triangle_count, L1->triangle_count);
+            free(expect);
+            free(got);
+        }
+        check_levels("double-sided decal", &two, 4);
+    }
+    run_free(&one);
+    run_free(&two);
+    mesh_free(&m);
+}
+
 /* ---- closed meshes: a bumpy sphere and a torus ---------------------------------- */
 
 /* An icosphere with `subdiv` subdivisions (20 * 4^subdiv triangles), radius
@@ -1958,5 +2015,6 @@ int main(void)
     RUN(test_wavy_shell_regions);
     RUN(test_hill_over_coarse_hill_regions);
     RUN(test_double_sided_sheet);
+    RUN(test_double_sided_decal);
     return check_summary();
 }

@@ -298,16 +298,21 @@ static void check_invariants(const weld_result *w, const scene_mesh *m)
         if (kind == WELD_SEAM && (vborder || vseam != 2 || vchange != 2)) ok_kind = 0;
         int dangles = 0;
         for (uint32_t i = 0; i < 3 * w->dangling_count; ++i) dangles |= w->dangling_vertices[i] == v;
-        /* a back border (weld.h): triangles around v differ in their back's primitive, or in having one */
-        uint64_t first_back = UINT64_MAX;
+        /* a back border (weld.h): two triangles of one primitive around v differ in their back's
+         * primitive, or in having one */
         int back_border = 0;
-        for (uint32_t t = 0; t < w->triangle_count && w->back_count; ++t) {
+        for (uint32_t t = 0; t < w->triangle_count && w->back_count && !back_border; ++t) {
             const uint32_t *tv = &w->triangle_vertices[3 * t];
             if (tv[0] != v && tv[1] != v && tv[2] != v) continue;
-            const uint32_t b = w->triangle_back[t];
-            const uint64_t sig = b == WELD_NO_BACK ? UINT32_MAX : w->back_primitive[b];
-            if (first_back == UINT64_MAX) first_back = sig;
-            else if (sig != first_back) back_border = 1;
+            for (uint32_t u = t + 1; u < w->triangle_count; ++u) {
+                const uint32_t *uv = &w->triangle_vertices[3 * u];
+                if ((uv[0] != v && uv[1] != v && uv[2] != v) || w->triangle_primitive[u] != w->triangle_primitive[t])
+                    continue;
+                const uint32_t bt = w->triangle_back[t], bu = w->triangle_back[u];
+                const uint64_t st = bt == WELD_NO_BACK ? UINT32_MAX : w->back_primitive[bt];
+                const uint64_t su = bu == WELD_NO_BACK ? UINT32_MAX : w->back_primitive[bu];
+                if (st != su) back_border = 1;
+            }
         }
         if (back_border && kind != WELD_LOCKED) ok_kind = 0;
         dangles |= back_border;
@@ -968,6 +973,29 @@ static void test_double_sided(void)
         CHECK(line_locked && others_free, "locked exactly where the backs stop");
     }
     weld_free(&w);
+
+    /* two materials, each double-sided in its own primitive: the material seam is no back
+     * border (each side keeps its backs), its inner vertices stay seam vertices */
+    pbuf *ml = pbuf_new(), *mr = pbuf_new();
+    build_grid(ml, 0, 2, 4);
+    build_grid(mr, 2, 4, 4);
+    add_reversed(ml, ml, 0, 16, 0, 0);
+    add_reversed(mr, mr, 0, 16, 0, 0);
+    tmesh_init(&m, "two materials, double");
+    tmesh_add(&m, ml, 0, 1, 1);
+    tmesh_add(&m, mr, 1, 1, 1);
+    if (weld_ok(&m, &w)) {
+        CHECK(w.back_count == 32 && w.triangle_count == 32, "backs %u, topology %u", w.back_count, w.triangle_count);
+        for (int j = 1; j <= 3; ++j) {
+            const uint32_t v = find_vertex(&w, 2, (float)j, 0);
+            CHECK(v != UINT32_MAX && w.vertex_kind[v] == WELD_SEAM, "(2,%d) is %s", j,
+                  v == UINT32_MAX ? "missing" : weld_kind_name((weld_kind)w.vertex_kind[v]));
+        }
+        CHECK(count_kind(&w, WELD_LOCKED) == 2, "locked: the seam's two ends only (%u)", count_kind(&w, WELD_LOCKED));
+    }
+    weld_free(&w);
+    free(ml);
+    free(mr);
 
     /* a back with a UV seam the front lacks (at x = 2): the pairs with a corner on the seam
      * stay in the topology, both layers (non-manifold, locked), the others are backs */
