@@ -20,7 +20,8 @@
  *                      the vertex-triangle lists)
  *   mark_seams         seam flag of manifold interior edges
  *   classify_vertices  walk each umbrella, apply the kind rules
- *   take_backs         reversed repeats out of the topology, as backs (only
+ *   take_backs         reversed repeats out of the topology, as backs, their
+ *                      fronts one consistent side (orient_pairs) (only
  *                      when it has a non-manifold edge; then built again)
  *   lock_back_borders  where backs start, stop or change primitive
  *   find_dangling      dropped triangles that may lie off the surface
@@ -808,6 +809,109 @@ static long pair_backs(const weld_result *out, uint32_t *back_of, uint8_t *is_ba
     return pairs;
 }
 
+typedef struct pair_edge {
+    uint64_t key;     /* the edge's vertices, lower << 32 | higher */
+    uint32_t pair;    /* dense pair number */
+    uint32_t forward; /* the pair's front runs lower -> higher */
+} pair_edge;
+
+static int compare_pair_edges(const void *a, const void *b)
+{
+    const pair_edge *x = a, *y = b;
+    if (x->key != y->key) return x->key < y->key ? -1 : 1;
+    return (x->pair > y->pair) - (x->pair < y->pair);
+}
+
+/* Which of a pair is the front is a choice: pair_backs takes the earlier
+ * triangle, which gives a consistently oriented front layer when the input
+ * lists one side first (or each front before its back), but not when an
+ * index optimizer has shuffled the two sides of a primitive together: then
+ * neighbouring fronts disagree in winding, their edges look non-manifold and
+ * the layer is locked. So the front of each pair is chosen again by a flood
+ * over the pairs, across each edge that exactly two pairs share: a
+ * neighbour's front must run the edge the other way. The first pair of each
+ * connected set keeps its front, so an input whose earlier triangles already
+ * agree is left as it is; a pair whose two triangles are in different
+ * primitives is never turned (its front's primitive would change). Returns
+ * the number of pairs turned, or -1 when memory runs out. */
+static long orient_pairs(const weld_result *out, uint32_t *back_of, uint8_t *is_back, long pairs)
+{
+    const uint32_t n = out->triangle_count;
+    const size_t np = (size_t)pairs;
+    uint32_t *front = alloc_array(np, sizeof *front), *offset = alloc_array(np + 1, sizeof *offset);
+    pair_edge *e = alloc_array(3 * np, sizeof *e);
+    uint32_t *adjacent = alloc_array(6 * np, sizeof *adjacent), *queue = alloc_array(np, sizeof *queue);
+    uint8_t *same = alloc_array(6 * np, 1), *state = alloc_array(np, 1);
+    long turned = -1;
+    if (!front || !offset || !e || !adjacent || !queue || !same || !state) goto done;
+    size_t k = 0;
+    for (uint32_t f = 0; f < n; ++f) {
+        if (back_of[f] == NONE) continue;
+        const uint32_t *tv = out->triangle_vertices + 3 * (size_t)f;
+        for (int c = 0; c < 3; ++c) {
+            const uint32_t a = tv[c], b = tv[(c + 1) % 3];
+            e[3 * k + (size_t)c] = (pair_edge){(uint64_t)(a < b ? a : b) << 32 | (a < b ? b : a), (uint32_t)k, a < b};
+        }
+        front[k++] = f;
+    }
+    qsort(e, 3 * np, sizeof *e, compare_pair_edges);
+    /* adjacency (CSR) over the edges exactly two pairs share; same[i]: both
+     * fronts run the edge the same way (then one of them must turn) */
+    memset(offset, 0, (np + 1) * sizeof *offset);
+    for (size_t i = 0; i + 1 < 3 * np; ++i)
+        if (e[i].key == e[i + 1].key && (i + 2 >= 3 * np || e[i + 2].key != e[i].key) && (i == 0 || e[i - 1].key != e[i].key)) {
+            offset[e[i].pair + 1]++;
+            offset[e[i + 1].pair + 1]++;
+        }
+    for (size_t p = 0; p < np; ++p) offset[p + 1] += offset[p];
+    uint32_t *fill = queue; /* the queue is free until the flood */
+    for (size_t p = 0; p < np; ++p) fill[p] = offset[p];
+    for (size_t i = 0; i + 1 < 3 * np; ++i)
+        if (e[i].key == e[i + 1].key && (i + 2 >= 3 * np || e[i + 2].key != e[i].key) && (i == 0 || e[i - 1].key != e[i].key)) {
+            const pair_edge *x = &e[i], *y = &e[i + 1];
+            same[fill[x->pair]] = same[fill[y->pair]] = x->forward == y->forward;
+            adjacent[fill[x->pair]++] = y->pair;
+            adjacent[fill[y->pair]++] = x->pair;
+        }
+    memset(state, 0, np); /* 0 not reached, 1 keeps its front, 2 turns */
+    turned = 0;
+    for (size_t start = 0; start < np; ++start) {
+        if (state[start]) continue;
+        state[start] = 1;
+        size_t head = 0, tail = 0;
+        queue[tail++] = (uint32_t)start;
+        while (head < tail) {
+            const uint32_t p = queue[head++];
+            for (uint32_t i = offset[p]; i < offset[p + 1]; ++i) {
+                const uint32_t q = adjacent[i];
+                if (state[q]) continue;
+                const int turn = (state[p] == 2) != same[i];
+                const uint32_t f = front[q];
+                state[q] = turn && out->triangle_primitive[f] == out->triangle_primitive[back_of[f]] ? 2 : 1;
+                queue[tail++] = q;
+            }
+        }
+    }
+    for (size_t p = 0; p < np; ++p) {
+        if (state[p] != 2) continue;
+        const uint32_t f = front[p], b = back_of[f];
+        back_of[f] = NONE;
+        is_back[f] = 1;
+        back_of[b] = f;
+        is_back[b] = 0;
+        turned++;
+    }
+done:
+    free(front);
+    free(offset);
+    free(e);
+    free(adjacent);
+    free(queue);
+    free(same);
+    free(state);
+    return turned;
+}
+
 typedef struct back_map_entry {
     uint64_t key; /* front wedge class << 32 | back primitive */
     uint32_t wedge;
@@ -930,6 +1034,7 @@ static int take_backs(weld_work *k, weld_result *out, unsigned threads, lp_error
     uint8_t *is_back = alloc_array(n, sizeof *is_back);
     long pairs = back_of && is_back ? pair_backs(out, back_of, is_back) : -1;
     int map = 0;
+    if (pairs > 0 && orient_pairs(out, back_of, is_back, pairs) < 0) pairs = -1;
     if (pairs > 0) map = build_back_map(out, back_of, is_back, &pairs);
     if (pairs < 0 || map < 0) {
         free(back_of);

@@ -39,7 +39,11 @@
  *   primitive and material). Backs are taken out of
  *   the topology, which would otherwise see four triangles on every edge and
  *   lock the whole sheet; each front triangle has at most one back, the
- *   earliest unpaired one (input order). Only a triangle on a non-manifold
+ *   earliest unpaired one (input order). The front of a pair is then chosen
+ *   again so that neighbouring fronts agree in winding (both sides shuffled
+ *   together in one primitive still give one oriented layer; the first pair
+ *   of each connected part keeps its front; a pair over two primitives is
+ *   never turned). Only a triangle on a non-manifold
  *   edge can be a front or a back: a pair that shares its edges with no other
  *   triangle (a lone two-sided triangle, a closed "pillow") stays in the
  *   topology, where it is a closed surface of its own (and a mesh without a

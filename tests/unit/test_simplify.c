@@ -1468,6 +1468,58 @@ static void test_materials(void)
 }
 
 
+/* The double-sided hill with both sides in ONE primitive, shuffled together
+ * as an index optimizer leaves them (every third pair lists its reversed
+ * triangle first): the weld chooses the fronts so that they agree (weld.h),
+ * and every level is one layer and its reversal, a few faces, certified. */
+static void test_double_sided_shuffled(void)
+{
+    mesh g;
+    mesh_init(&g);
+    mesh_grid(&g, 40, 40, 0, 10, 0, 10, hill_height, NULL);
+    mesh m = g;
+    m.tri = malloc(6 * (size_t)g.nt * sizeof *m.tri);
+    m.mat = calloc(2 * (size_t)g.nt, sizeof *m.mat);
+    if (!m.tri || !m.mat) abort();
+    m.nt = 0;
+    for (uint32_t t = 0; t < g.nt; ++t) {
+        const uint32_t a = g.tri[3 * t], b = g.tri[3 * t + 1], c = g.tri[3 * t + 2];
+        const uint32_t first[3] = {a, t % 3 == 1 ? c : b, t % 3 == 1 ? b : c};
+        const uint32_t second[3] = {a, first[2], first[1]};
+        memcpy(m.tri + 3 * (size_t)m.nt++, first, sizeof first);
+        memcpy(m.tri + 3 * (size_t)m.nt++, second, sizeof second);
+    }
+    const double fractions[2] = {0.01, 0.03};
+    run rn;
+    if (run_simplify(&rn, &m, fractions, 2, 2, 1) == LP_OK) {
+        CHECK(rn.w.back_count == g.nt && rn.w.stats.vertices_by_kind[WELD_LOCKED] == 0 && rn.w.stats.nonmanifold_edges == 0,
+              "backs %u of %u, locked %u, non-manifold edges %u", rn.w.back_count, g.nt,
+              rn.w.stats.vertices_by_kind[WELD_LOCKED], rn.w.stats.nonmanifold_edges);
+        for (uint32_t k = 0; k < rn.r.level_count; ++k) {
+            const simplify_level *L = &rn.r.levels[k];
+            uint64_t *keys[2];
+            for (int side = 0; side < 2; ++side) {
+                keys[side] = malloc(((size_t)L->triangle_count + 1) * sizeof *keys[side]);
+                if (!keys[side]) abort();
+                for (uint32_t f = 0; f < L->triangle_count; ++f)
+                    keys[side][f] = face_key(level_vertex(&rn, k, f, 0), level_vertex(&rn, k, f, 1),
+                                             level_vertex(&rn, k, f, 2), side);
+                qsort(keys[side], L->triangle_count, sizeof *keys[side], compare_keys);
+            }
+            CHECK(L->triangle_count > 0 && L->triangle_count < g.nt / 5 &&
+                      memcmp(keys[0], keys[1], L->triangle_count * sizeof *keys[0]) == 0,
+                  "level %u: %u faces (of %u), each with its reversal", k, L->triangle_count, 2 * g.nt);
+            free(keys[0]);
+            free(keys[1]);
+        }
+        check_levels("shuffled double-sided hill", &rn, 4);
+    }
+    run_free(&rn);
+    free(m.tri);
+    free(m.mat);
+    mesh_free(&g);
+}
+
 /* The decal of test_materials with every triangle again reversed in its own
  * material (each primitive double-sided, as exporters write it): the material
  * seam is no back border (weld.h), so each level is exactly the single decal's
@@ -2016,5 +2068,6 @@ int main(void)
     RUN(test_hill_over_coarse_hill_regions);
     RUN(test_double_sided_sheet);
     RUN(test_double_sided_decal);
+    RUN(test_double_sided_shuffled);
     return check_summary();
 }

@@ -931,6 +931,36 @@ static void test_double_sided(void)
     }
     weld_free(&w);
 
+    /* the two sides shuffled together in one primitive (as an index optimizer leaves
+     * them): every third pair lists its reversed triangle first. The fronts are chosen
+     * again so that they agree: the topology is the single sheet's, nothing locked */
+    pbuf *sh = pbuf_new();
+    build_grid(sh, 0, 4, 4);
+    const uint32_t grid_tris = sh->tcount;
+    uint32_t *grid_tri = malloc(3 * (size_t)grid_tris * sizeof *grid_tri);
+    if (!grid_tri) abort();
+    memcpy(grid_tri, sh->tri, 3 * (size_t)grid_tris * sizeof *grid_tri);
+    sh->tcount = 0;
+    for (uint32_t t = 0; t < grid_tris; ++t) {
+        const uint32_t *g = grid_tri + 3 * (size_t)t;
+        if (t % 3 == 1) pbuf_tri(sh, g[0], g[2], g[1]);
+        pbuf_tri(sh, g[0], g[1], g[2]);
+        if (t % 3 != 1) pbuf_tri(sh, g[0], g[2], g[1]);
+    }
+    free(grid_tri);
+    tmesh_init(&m, "shuffled");
+    tmesh_add(&m, sh, 0, 1, 1);
+    if (weld_ok(&m, &w)) {
+        CHECK(w.back_count == 32 && w.triangle_count == 32, "backs %u, topology %u", w.back_count, w.triangle_count);
+        CHECK(w.stats.nonmanifold_edges == 0 && euler(&w) == 1 && count_kind(&w, WELD_LOCKED) == 0 &&
+                  count_kind(&w, WELD_BORDER) == 16 && count_kind(&w, WELD_MANIFOLD) == 9,
+              "a disk with one orientation: non-manifold %u, Euler %d, locked %u", w.stats.nonmanifold_edges, euler(&w),
+              count_kind(&w, WELD_LOCKED));
+        CHECK(w.triangle_back[0] != WELD_NO_BACK, "the first pair keeps its front");
+    }
+    weld_free(&w);
+    free(sh);
+
     /* the back as its own primitive and material, normals turned over */
     pbuf *c = pbuf_new();
     build_grid(c, 0, 4, 4);
