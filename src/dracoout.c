@@ -136,29 +136,36 @@ static void level_boxes(const scene_mesh *mesh, const weld_result *w, const simp
     }
 }
 
-/* The bound of the level's grid at `bits`: one grid for all its quantized
- * primitives, over the union of their boxes, so that a position two
+/* The box of the level's grid: one grid for all its quantized primitives,
+ * over the union of their boxes, so that a position two
  * primitives share (a material seam, a back face's corner) decodes to the
  * same point in both: a grid per primitive would open cracks between them.
  * Integer positions are stored losslessly, unless `placed`: a level that
  * placed vertices writes them as a float POSITION accessor of its own
- * (lodchain.c), quantized. 0 when nothing is quantized. */
-static double boxes_bound(const scene *s, const scene_mesh *mesh, const double *lo, const double *hi,
-                          const uint8_t *used, int bits, int placed)
+ * (lodchain.c), quantized. The box is empty when nothing is quantized. */
+static void grid_box(const scene *s, const scene_mesh *mesh, const double *lo, const double *hi, const uint8_t *used,
+                     int placed, double box_lo[3], double box_hi[3])
 {
-    double ulo[3] = {INFINITY, INFINITY, INFINITY}, uhi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    int any = 0;
+    for (int c = 0; c < 3; ++c) {
+        box_lo[c] = INFINITY;
+        box_hi[c] = -INFINITY;
+    }
     for (uint32_t p = 0; p < mesh->primitive_count; ++p) {
         if (!used[p] || (!placed && !float_positions(s, &mesh->primitives[p]))) continue;
-        any = 1;
         for (int c = 0; c < 3; ++c) {
-            if (lo[3 * p + c] < ulo[c]) ulo[c] = lo[3 * p + c];
-            if (hi[3 * p + c] > uhi[c]) uhi[c] = hi[3 * p + c];
+            if (lo[3 * p + c] < box_lo[c]) box_lo[c] = lo[3 * p + c];
+            if (hi[3 * p + c] > box_hi[c]) box_hi[c] = hi[3 * p + c];
         }
     }
-    if (!any) return 0;
+}
+
+/* The bound of the grid over a level's box at `bits`; 0 for an empty box
+ * (nothing quantized). */
+static double grid_bound(const double box_lo[3], const double box_hi[3], int bits)
+{
+    if (!(box_lo[0] <= box_hi[0])) return 0;
     dracoout_grid g;
-    dracoout_grid_of(ulo, uhi, bits, &g);
+    dracoout_grid_of(box_lo, box_hi, bits, &g);
     return g.bound;
 }
 
@@ -176,8 +183,10 @@ int dracoout_budget(const scene *s, uint32_t m, const dracoout_options *o, doubl
         return lp_fail(err, LP_INVALID, "out of memory");
     }
     level_boxes(mesh, NULL, NULL, lo, hi, used);
+    double box_lo[3], box_hi[3];
+    grid_box(s, mesh, lo, hi, used, placing, box_lo, box_hi);
     for (*bits = o->position_bits;; ++*bits) {
-        *budget = boxes_bound(s, mesh, lo, hi, used, *bits, placing);
+        *budget = grid_bound(box_lo, box_hi, *bits);
         if (*budget <= 0.25 * smallest_eps || *bits >= DRACOOUT_MAX_BITS) break;
     }
     free(lo);
@@ -208,15 +217,16 @@ int dracoout_plan_mesh(const scene *s, uint32_t m, const weld_result *w, const s
         free(used);
         return lp_fail(err, LP_INVALID, "out of memory");
     }
-    for (uint32_t k = 0; k <= levels; ++k)
+    for (uint32_t k = 0; k <= levels; ++k) {
         level_boxes(mesh, w, k ? &r->levels[k - 1] : NULL, lo + 3 * n * k, hi + 3 * n * k, used + n * k);
+        grid_box(s, mesh, lo + 3 * n * k, hi + 3 * n * k, used + n * k, k && r->levels[k - 1].positions,
+                 plan->grid_lo[k], plan->grid_hi[k]);
+    }
     uint32_t kept[SIMPLIFY_MAX_LEVELS];
     const uint32_t kept_count = r ? lodchain_kept_levels(w, r, min_reduction, kept) : 0;
     int rc = LP_OK;
     for (int bits = start_bits;; ++bits) {
-        for (uint32_t k = 0; k <= levels; ++k)
-            plan->added_error[k] = boxes_bound(s, mesh, lo + 3 * n * k, hi + 3 * n * k, used + n * k, bits,
-                                               k && r->levels[k - 1].positions);
+        for (uint32_t k = 0; k <= levels; ++k) plan->added_error[k] = grid_bound(plan->grid_lo[k], plan->grid_hi[k], bits);
         uint32_t worst = 0;
         double excess = 0;
         for (uint32_t i = 0; i < kept_count; ++i) {
@@ -367,12 +377,6 @@ static int bits_of(draco_semantic s, const dracoout_options *o, int position_bit
     default: return o->generic_bits;
     }
 }
-
-/* The box of the float positions a level's quantized primitives use: the
- * level's one position grid (boxes_bound). */
-typedef struct level_box {
-    double lo[3], hi[3];
-} level_box;
 
 /* One primitive's data, compacted to the vertices its triangles use. */
 typedef struct packed_primitive {
@@ -655,16 +659,18 @@ static int write_primitive(gltf_doc *doc, uint32_t mesh, uint32_t prim, const gl
     return rc;
 }
 
-/* Encodes primitive prim of document mesh `mesh` with the given triangles. */
+/* Encodes primitive prim of document mesh `mesh` with the given triangles,
+ * on the grid the plan chose for its ladder level (0: LOD0). */
 static int encode_primitive(scene *s, uint32_t mesh, uint32_t prim, const uint32_t *triangles, uint32_t triangle_count,
                             uint32_t vertex_count, const dracoout_options *o, const dracoout_plan *plan,
-                            const level_box *box, double allowed, dracoout_stats *stats, lp_error *err)
+                            uint32_t ladder_level, dracoout_stats *stats, lp_error *err)
 {
     gltf_primitive g;
     gltf_get_primitive(s->doc, mesh, prim, &g);
     packed_primitive pp;
-    int rc = pack_primitive(s->doc, &g, triangles, triangle_count, vertex_count, o, plan->position_bits, box->lo,
-                            box->hi, &pp, err);
+    const double allowed = plan->added_error[ladder_level];
+    int rc = pack_primitive(s->doc, &g, triangles, triangle_count, vertex_count, o, plan->position_bits,
+                            plan->grid_lo[ladder_level], plan->grid_hi[ladder_level], &pp, err);
     /* the grid of the data we encode must be the one the plan bounded */
     if (!rc && pp.grid.bound > allowed * (1 + 1e-12))
         rc = lp_fail(err, LP_PROMISE, "meshes[%u].primitives[%u]: Draco grid bound %.9g exceeds the planned %.9g", mesh,
@@ -690,88 +696,6 @@ static int encode_primitive(scene *s, uint32_t mesh, uint32_t prim, const uint32
     return rc;
 }
 
-/* The triangles (as indices) of primitive p of document mesh `lod` that the
- * chain encodes, and its vertex count; 0 with *idx NULL for a primitive that
- * stays as it is (points, lines, no indices or POSITION). */
-static int level_primitive(const scene *s, uint32_t lod, uint32_t p, uint32_t **idx, uint32_t *n,
-                           uint32_t *vertex_count, lp_error *err)
-{
-    *idx = NULL;
-    *n = 0;
-    gltf_primitive g;
-    gltf_get_primitive(s->doc, lod, p, &g);
-    const int64_t position = gltf_primitive_attribute(&g, "POSITION");
-    if (g.mode != 4 || g.indices < 0 || position < 0) return LP_OK;
-    gltf_accessor acc;
-    gltf_get_accessor(s->doc, (size_t)position, &acc);
-    *vertex_count = (uint32_t)acc.count;
-    int rc = accessor_read_indices(s->doc, g.indices, (uint32_t)acc.count, idx, n, err);
-    if (!rc && *n < 3) {
-        free(*idx);
-        *idx = NULL;
-        *n = 0;
-    }
-    return rc;
-}
-
-/* Adds the float positions that triangles of primitive p of document mesh
- * `mesh` use to the box (integer positions are stored losslessly, off the
- * grid). */
-static int box_add_primitive(const scene *s, uint32_t mesh, uint32_t p, const uint32_t *triangles,
-                             uint32_t triangle_count, level_box *box, lp_error *err)
-{
-    gltf_primitive g;
-    gltf_get_primitive(s->doc, mesh, p, &g);
-    const int64_t position = gltf_primitive_attribute(&g, "POSITION");
-    gltf_accessor acc;
-    if (position < 0 || gltf_get_accessor(s->doc, (size_t)position, &acc) != 0 || acc.component_type != 5126 ||
-        acc.components != 3)
-        return LP_OK;
-    uint8_t *raw = NULL;
-    uint32_t count = 0, elem = 0;
-    int rc = accessor_read_raw(s->doc, position, &raw, &count, &elem, err);
-    if (rc) return rc;
-    for (size_t i = 0; i < 3 * (size_t)triangle_count; ++i) {
-        if (triangles[i] >= count) continue; /* pack_primitive reports it */
-        float x[3];
-        memcpy(x, raw + (size_t)triangles[i] * elem, sizeof x);
-        for (int c = 0; c < 3; ++c) {
-            if (x[c] < box->lo[c]) box->lo[c] = x[c];
-            if (x[c] > box->hi[c]) box->hi[c] = x[c];
-        }
-    }
-    free(raw);
-    return LP_OK;
-}
-
-static void box_empty(level_box *box)
-{
-    for (int c = 0; c < 3; ++c) {
-        box->lo[c] = INFINITY;
-        box->hi[c] = -INFINITY;
-    }
-}
-
-/* Encodes the primitives of a level mesh of the chain on one grid. */
-static int write_level(scene *s, uint32_t lod, const dracoout_options *o, const dracoout_plan *plan, double allowed,
-                       dracoout_stats *stats, lp_error *err)
-{
-    const uint32_t count = gltf_primitive_count(s->doc, lod);
-    level_box box;
-    box_empty(&box);
-    int rc = LP_OK;
-    for (int pass = 0; pass < 2 && !rc; ++pass)
-        for (uint32_t p = 0; p < count && !rc; ++p) {
-            uint32_t *idx = NULL, n = 0, vertex_count = 0;
-            rc = level_primitive(s, lod, p, &idx, &n, &vertex_count, err);
-            if (!rc && idx)
-                rc = pass == 0 ? box_add_primitive(s, lod, p, idx, n / 3, &box, err)
-                               : encode_primitive(s, lod, p, idx, n / 3, vertex_count, o, plan, &box, allowed, stats, err);
-            free(idx);
-        }
-    return rc;
-}
-
 int dracoout_write_mesh(scene *s, uint32_t m, const lodchain_summary *chain, const dracoout_options *o,
                         const dracoout_plan *plan, dracoout_stats *stats, lp_error *err)
 {
@@ -780,19 +704,27 @@ int dracoout_write_mesh(scene *s, uint32_t m, const lodchain_summary *chain, con
     gltf_sync_mesh_records(s->doc); /* the level meshes lodchain appended */
     /* levels first: their vertex accessors are LOD0's, shared until LOD0 goes
      * last and can rewrite them in place */
-    for (uint32_t k = 0; chain && k < chain->level_count && !rc; ++k)
-        rc = write_level(s, (uint32_t)chain->levels[k].mesh, o, plan, plan->added_error[chain->levels[k].ladder_level],
-                         stats, err);
-    level_box box;
-    box_empty(&box);
-    for (uint32_t p = 0; p < mesh->primitive_count && !rc; ++p)
-        if (encodable(&mesh->primitives[p]))
-            rc = box_add_primitive(s, m, p, mesh->primitives[p].triangles, mesh->primitives[p].triangle_count, &box, err);
+    for (uint32_t k = 0; chain && k < chain->level_count && !rc; ++k) {
+        const uint32_t lod = (uint32_t)chain->levels[k].mesh;
+        for (uint32_t p = 0; p < gltf_primitive_count(s->doc, lod) && !rc; ++p) {
+            gltf_primitive g;
+            gltf_get_primitive(s->doc, lod, p, &g);
+            const int64_t position = gltf_primitive_attribute(&g, "POSITION");
+            if (g.mode != 4 || g.indices < 0 || position < 0) continue; /* points, lines, skipped: as they are */
+            gltf_accessor acc;
+            gltf_get_accessor(s->doc, (size_t)position, &acc);
+            uint32_t *idx = NULL, n = 0;
+            rc = accessor_read_indices(s->doc, g.indices, (uint32_t)acc.count, &idx, &n, err);
+            if (!rc && n >= 3)
+                rc = encode_primitive(s, lod, p, idx, n / 3, (uint32_t)acc.count, o, plan, chain->levels[k].ladder_level,
+                                      stats, err);
+            free(idx);
+        }
+    }
     for (uint32_t p = 0; p < mesh->primitive_count && !rc; ++p) {
         const scene_primitive *pr = &mesh->primitives[p];
         if (!encodable(pr)) continue;
-        rc = encode_primitive(s, m, p, pr->triangles, pr->triangle_count, pr->vertex_count, o, plan, &box,
-                              plan->added_error[0], stats, err);
+        rc = encode_primitive(s, m, p, pr->triangles, pr->triangle_count, pr->vertex_count, o, plan, 0, stats, err);
     }
     if (!rc && stats->primitives) gltf_use_extension(s->doc, "KHR_draco_mesh_compression", !o->fallback);
     return rc;

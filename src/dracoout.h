@@ -76,6 +76,9 @@ typedef struct dracoout_plan {
      * the level's grid at position_bits. What lodchain_options's
      * added_error takes. */
     double added_error[SIMPLIFY_MAX_LEVELS + 1];
+    /* per ladder level: the box of its one position grid (the float
+     * positions its quantized primitives use; empty when none is) */
+    double grid_lo[SIMPLIFY_MAX_LEVELS + 1][3], grid_hi[SIMPLIFY_MAX_LEVELS + 1][3];
 } dracoout_plan;
 
 /* The budget the simplifier must leave for the quantization, so that a
