@@ -468,9 +468,16 @@ function cowVariant(dir, name, edit) {
     const max = [...Array(n)].map((_, c) => Math.max(...values.filter((_, i) => i % n === c)));
     return j.accessors.push({ bufferView: v, componentType: 5126, count, type, min, max }) - 1;
   };
+  const addIndices = (indices) => {
+    const bytes = Buffer.from(indices.buffer, indices.byteOffset, indices.byteLength);
+    const b = j.buffers.push({ byteLength: bytes.length, uri: b64(bytes) }) - 1;
+    const v = j.bufferViews.push({ buffer: b, byteLength: bytes.length, target: 34963 }) - 1;
+    const componentType = indices.BYTES_PER_ELEMENT === 2 ? 5123 : 5125;
+    return j.accessors.push({ bufferView: v, componentType, count: indices.length, type: 'SCALAR' }) - 1;
+  };
   const node = j.scenes[j.scene ?? 0].nodes[0];
   assert.equal(j.nodes[node].mesh, 0, 'test premise: cow.glb\'s root node has the mesh');
-  edit(j, node, addAccessor);
+  edit(j, node, addAccessor, addIndices);
   const file = path.join(dir, name);
   fs.writeFileSync(file, JSON.stringify(j));
   return file;
@@ -815,11 +822,8 @@ test('a double-sided mesh: every level has both sides, the back the front revers
   const front = cow.accessorArray(cow.json.meshes[0].primitives[0].indices);
   const reversed = new Uint16Array(front.length);
   for (let i = 0; i < front.length; i += 3) reversed.set([front[i], front[i + 2], front[i + 1]], i);
-  const input = cowVariant(tempDir(t), 'cow_double.gltf', (j) => {
-    const bytes = Buffer.from(reversed.buffer);
-    const b = j.buffers.push({ byteLength: bytes.length, uri: `data:application/octet-stream;base64,${bytes.toString('base64')}` }) - 1;
-    const v = j.bufferViews.push({ buffer: b, byteLength: bytes.length, target: 34963 }) - 1;
-    const indices = j.accessors.push({ bufferView: v, componentType: 5123, count: reversed.length, type: 'SCALAR' }) - 1;
+  const input = cowVariant(tempDir(t), 'cow_double.gltf', (j, node, addAccessor, addIndices) => {
+    const indices = addIndices(reversed);
     j.materials = [{ name: 'cow outside' }, { name: 'cow inside' }];
     const prim = j.meshes[0].primitives[0];
     prim.material = 0;
@@ -889,11 +893,8 @@ test('a double-sided mesh with a UV seam on its back only: levels with backs, th
   }
   const backVertex = [...Array(nv).keys(), ...copyOf.keys()];
   const uv = (v, shift) => [pos[3 * v] + shift, pos[3 * v + 2]];
-  const input = cowVariant(tempDir(t), 'cow_double_back_seam.gltf', (j, node, addAccessor) => {
-    const bytes = Buffer.from(new Uint32Array(backIndices).buffer);
-    const b = j.buffers.push({ byteLength: bytes.length, uri: `data:application/octet-stream;base64,${bytes.toString('base64')}` }) - 1;
-    const v = j.bufferViews.push({ buffer: b, byteLength: bytes.length, target: 34963 }) - 1;
-    const indices = j.accessors.push({ bufferView: v, componentType: 5125, count: backIndices.length, type: 'SCALAR' }) - 1;
+  const input = cowVariant(tempDir(t), 'cow_double_back_seam.gltf', (j, node, addAccessor, addIndices) => {
+    const indices = addIndices(new Uint32Array(backIndices));
     j.materials = [{ name: 'card front' }, { name: 'card back' }];
     const prim = j.meshes[0].primitives[0];
     prim.material = 0;

@@ -1435,15 +1435,21 @@ static double decal_height(uint32_t i, uint32_t j, double x, double y, void *ctx
     return 0.03 * sin(4.0 * x) * cos(3.0 * y);
 }
 
+/* The 30 x 30 grid with its decal (material 1). */
+static void decal_mesh(mesh *m)
+{
+    mesh_init(m);
+    mesh_grid(m, 30, 30, 0, 1, 0, 1, decal_height, NULL);
+    for (uint32_t t = 0; t < m->nt; ++t) {
+        uint32_t cell = t / 2, i = cell % 30, j = cell / 30;
+        m->mat[t] = i >= 10 && i < 20 && j >= 10 && j < 20;
+    }
+}
+
 static void test_materials(void)
 {
     mesh m;
-    mesh_init(&m);
-    mesh_grid(&m, 30, 30, 0, 1, 0, 1, decal_height, NULL);
-    for (uint32_t t = 0; t < m.nt; ++t) {
-        uint32_t cell = t / 2, i = cell % 30, j = cell / 30;
-        m.mat[t] = i >= 10 && i < 20 && j >= 10 && j < 20;
-    }
+    decal_mesh(&m);
     const double fractions[3] = {0.01, 0.03, 0.07};
     run rn;
     if (run_simplify(&rn, &m, fractions, 3, 0, 0) == LP_OK) {
@@ -1527,12 +1533,7 @@ static void test_double_sided_shuffled(void)
 static void test_double_sided_decal(void)
 {
     mesh m;
-    mesh_init(&m);
-    mesh_grid(&m, 30, 30, 0, 1, 0, 1, decal_height, NULL);
-    for (uint32_t t = 0; t < m.nt; ++t) {
-        uint32_t cell = t / 2, i = cell % 30, j = cell / 30;
-        m.mat[t] = i >= 10 && i < 20 && j >= 10 && j < 20;
-    }
+    decal_mesh(&m);
     const uint32_t front = m.nt;
     for (uint32_t t = 0; t < front; ++t) {
         m.cur_mat = m.mat[t];
