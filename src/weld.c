@@ -822,6 +822,12 @@ static int compare_pair_edges(const void *a, const void *b)
     return (x->pair > y->pair) - (x->pair < y->pair);
 }
 
+/* Do entries i and i + 1 of the sorted edges, and no others, hold one edge? */
+static int shared_by_two(const pair_edge *e, size_t n, size_t i)
+{
+    return e[i].key == e[i + 1].key && (i + 2 >= n || e[i + 2].key != e[i].key) && (i == 0 || e[i - 1].key != e[i].key);
+}
+
 /* Which of a pair is the front is a choice: pair_backs takes the earlier
  * triangle, which gives a consistently oriented front layer when the input
  * lists one side first (or each front before its back), but not when an
@@ -833,8 +839,8 @@ static int compare_pair_edges(const void *a, const void *b)
  * connected set keeps its front, so an input whose earlier triangles already
  * agree is left as it is; a pair whose two triangles are in different
  * primitives is never turned (its front's primitive would change). Returns
- * the number of pairs turned, or -1 when memory runs out. */
-static long orient_pairs(const weld_result *out, uint32_t *back_of, uint8_t *is_back, long pairs)
+ * 0, or -1 when memory runs out. */
+static int orient_pairs(const weld_result *out, uint32_t *back_of, uint8_t *is_back, long pairs)
 {
     const uint32_t n = out->triangle_count;
     const size_t np = (size_t)pairs;
@@ -842,7 +848,7 @@ static long orient_pairs(const weld_result *out, uint32_t *back_of, uint8_t *is_
     pair_edge *e = alloc_array(3 * np, sizeof *e);
     uint32_t *adjacent = alloc_array(6 * np, sizeof *adjacent), *queue = alloc_array(np, sizeof *queue);
     uint8_t *same = alloc_array(6 * np, 1), *state = alloc_array(np, 1);
-    long turned = -1;
+    int rc = -1;
     if (!front || !offset || !e || !adjacent || !queue || !same || !state) goto done;
     size_t k = 0;
     for (uint32_t f = 0; f < n; ++f) {
@@ -859,7 +865,7 @@ static long orient_pairs(const weld_result *out, uint32_t *back_of, uint8_t *is_
      * fronts run the edge the same way (then one of them must turn) */
     memset(offset, 0, (np + 1) * sizeof *offset);
     for (size_t i = 0; i + 1 < 3 * np; ++i)
-        if (e[i].key == e[i + 1].key && (i + 2 >= 3 * np || e[i + 2].key != e[i].key) && (i == 0 || e[i - 1].key != e[i].key)) {
+        if (shared_by_two(e, 3 * np, i)) {
             offset[e[i].pair + 1]++;
             offset[e[i + 1].pair + 1]++;
         }
@@ -867,14 +873,13 @@ static long orient_pairs(const weld_result *out, uint32_t *back_of, uint8_t *is_
     uint32_t *fill = queue; /* the queue is free until the flood */
     for (size_t p = 0; p < np; ++p) fill[p] = offset[p];
     for (size_t i = 0; i + 1 < 3 * np; ++i)
-        if (e[i].key == e[i + 1].key && (i + 2 >= 3 * np || e[i + 2].key != e[i].key) && (i == 0 || e[i - 1].key != e[i].key)) {
+        if (shared_by_two(e, 3 * np, i)) {
             const pair_edge *x = &e[i], *y = &e[i + 1];
             same[fill[x->pair]] = same[fill[y->pair]] = x->forward == y->forward;
             adjacent[fill[x->pair]++] = y->pair;
             adjacent[fill[y->pair]++] = x->pair;
         }
     memset(state, 0, np); /* 0 not reached, 1 keeps its front, 2 turns */
-    turned = 0;
     for (size_t start = 0; start < np; ++start) {
         if (state[start]) continue;
         state[start] = 1;
@@ -899,8 +904,8 @@ static long orient_pairs(const weld_result *out, uint32_t *back_of, uint8_t *is_
         is_back[f] = 1;
         back_of[b] = f;
         is_back[b] = 0;
-        turned++;
     }
+    rc = 0;
 done:
     free(front);
     free(offset);
@@ -909,7 +914,7 @@ done:
     free(queue);
     free(same);
     free(state);
-    return turned;
+    return rc;
 }
 
 typedef struct back_map_entry {
