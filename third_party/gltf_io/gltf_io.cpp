@@ -28,6 +28,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
@@ -35,6 +36,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <new>
 #include <set>
 #include <sstream>
 #include <string>
@@ -444,6 +446,14 @@ std::string unreadable_kind(const struct stat &st, int own)
     return "is not a regular file";
 }
 
+// "cannot read (reason)" for errno; out of memory (fdopen's buffer) throws,
+// to be told as such rather than as a file that cannot be read.
+std::string read_error()
+{
+    if (errno == ENOMEM) throw std::bad_alloc();
+    return std::string("cannot read (") + strerror(errno) + ")";
+}
+
 // Reads the input file whole into *out. A regular file, or an anonymous pipe
 // (`lodpipe <(curl ...)`, `... | lodpipe /dev/stdin`) read to its end, are
 // accepted; a directory, a named pipe or a device is refused without waiting
@@ -458,7 +468,7 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
     *code = GLTF_IO;
     struct stat st;
     if (stat(path.c_str(), &st) != 0) {
-        *why = std::string("cannot read (") + strerror(errno) + ")";
+        *why = read_error();
         return false;
     }
     if (!(*why = unreadable_kind(st, -1)).empty()) return false;
@@ -470,24 +480,26 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
     }
     const int fd = open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0) {
-        *why = std::string("cannot read (") + strerror(errno) + ")";
+        *why = read_error();
         return false;
     }
     // closed on every way out, an allocation failure's exception included
     std::unique_ptr<FILE, int (*)(FILE *)> file(fdopen(fd, "rb"), fclose);
     FILE *f = file.get();
     if (!f) {
-        *why = std::string("cannot read (") + strerror(errno) + ")";
+        const int error = errno;
         close(fd);
+        errno = error;
+        *why = read_error();
         return false;
     }
     if (fstat(fd, &st) != 0 || !(*why = unreadable_kind(st, fd)).empty()) {
-        if (why->empty()) *why = std::string("cannot read (") + strerror(errno) + ")";
+        if (why->empty()) *why = read_error();
         return false;
     }
     // reads wait again: a pipe's writer may be slower than lodpipe
     if (fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK) != 0) {
-        *why = std::string("cannot read (") + strerror(errno) + ")";
+        *why = read_error();
         return false;
     }
     out->clear();
@@ -503,7 +515,7 @@ bool read_file(const std::string &path, uint64_t cap, std::vector<uint8_t> *out,
         }
     }
     if (ok && ferror(f)) {
-        *why = std::string("cannot read (") + strerror(errno) + ")";
+        *why = read_error();
         ok = false;
     }
     return ok;
@@ -702,11 +714,53 @@ struct gltf_doc {
     // or drops them (json_changed).
     mutable std::vector<size_t> accessor_ref_counts;
     mutable bool accessor_ref_counts_valid = false;
-    void json_changed() { accessor_ref_counts_valid = false; }
+    void json_changed() const { accessor_ref_counts_valid = false; }
+    // A call of the C API ran out of memory: an edit may be missing or half
+    // made, so the document is never written (gltf_serialize refuses it).
+    mutable bool out_of_memory = false;
     std::vector<size_t> accessor_refs_at_load; // the same counts as the load left the document
 };
 
 static std::vector<size_t> walk_accessor_refs(const gltf_doc *doc); // (editing, below)
+
+// Out of memory. nlohmann::json allocates while it destroys a value (a stack
+// for its children), and an exception cannot leave a destructor: a failed
+// allocation there would end the process with std::terminate. So a reserve is
+// set aside when the program starts and given back at the first allocation
+// that fails; the allocation is then tried again, and the unwinding and the
+// error report after a later failure have memory to run in. Once the reserve
+// is spent, a failure throws std::bad_alloc as usual.
+static constexpr size_t kMemoryReserveBytes = size_t(8) << 20;
+static std::atomic<void *> g_memory_reserve{nullptr};
+
+static void give_back_reserve()
+{
+    void *reserve = g_memory_reserve.exchange(nullptr);
+    if (!reserve) throw std::bad_alloc();
+    std::free(reserve);
+}
+
+static const bool g_memory_reserve_set = [] {
+    g_memory_reserve.store(std::malloc(kMemoryReserveBytes));
+    std::set_new_handler(give_back_reserve);
+    return true;
+}();
+
+// Runs `body` for a C API call: nothing is thrown into C. Any exception gives
+// `failed`; one from an edit may have left it half made, so the accessor
+// counts are dropped, and an allocation failure marks the document (see
+// out_of_memory).
+template <typename R, typename F> static R guarded(const gltf_doc *doc, R failed, F &&body) noexcept
+{
+    try {
+        return body();
+    } catch (const std::bad_alloc &) {
+        doc->out_of_memory = true;
+    } catch (...) {
+    }
+    doc->json_changed();
+    return failed;
+}
 
 namespace {
 
@@ -1029,15 +1083,31 @@ ojson json_for_tinygltf(const ojson &root, const std::string &dir)
 [[noreturn]] void fail_tinygltf(const std::string &err)
 {
     std::string first = err.substr(0, err.find('\n'));
+    // tinygltf catches what its JSON parser throws and hands back its text
+    if (first == std::bad_alloc().what()) throw std::bad_alloc();
     bool io = first.find("File not found") != std::string::npos || first.find("Failed to load") != std::string::npos ||
               first.find("File open error") != std::string::npos || first.find("not found") != std::string::npos;
     fail(io ? GLTF_IO : GLTF_INVALID, first.empty() ? "tinygltf could not load the file" : clipped(first, 160));
+}
+
+// tinygltf's reader of an external file, through read_file: tinygltf's own
+// says "File open error" for any failure, out of memory included, which must
+// be told as such (read_file throws std::bad_alloc).
+bool read_external_file(std::vector<unsigned char> *out, std::string *err, const std::string &path, void *)
+{
+    std::string why;
+    int code;
+    if (read_file(path, kDefaultMaxFileBytes, out, &why, &code)) return true;
+    if (err) *err = why;
+    return false;
 }
 
 void load_with_tinygltf(gltf_doc *doc, const ojson &root, bool glb, const uint8_t *bin, size_t bin_size)
 {
     tinygltf::TinyGLTF loader;
     loader.SetImageLoader(load_image_as_is, nullptr);
+    loader.SetFsCallbacks({&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_external_file,
+                           &tinygltf::WriteWholeFile, nullptr});
     std::string err, warn;
     const std::string text = json_for_tinygltf(root, doc->dir).dump();
     bool ok;
@@ -1184,6 +1254,8 @@ void load_fallback_buffers(gltf_doc *doc, const std::vector<size_t> &wanted, con
         reduced["buffers"].push_back(one);
     }
     tinygltf::TinyGLTF loader;
+    loader.SetFsCallbacks({&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_external_file,
+                           &tinygltf::WriteWholeFile, nullptr});
     tinygltf::Model model;
     std::string err, warn;
     const std::string text = reduced.dump();
@@ -1693,41 +1765,45 @@ extern "C" const char *gltf_name(const gltf_doc *doc, gltf_kind kind, size_t ind
 
 extern "C" int gltf_get_view(const gltf_doc *doc, size_t index, gltf_view *out)
 {
-    if (index >= doc->views.size() || doc->binary_released) return -1;
-    out->data = doc->views[index].ptr;
-    out->byte_length = doc->views[index].size;
-    out->byte_stride = u64(doc->json["bufferViews"][index], "byteStride", 0);
-    return 0;
+    return guarded(doc, -1, [&] {
+        if (index >= doc->views.size() || doc->binary_released) return -1;
+        out->data = doc->views[index].ptr;
+        out->byte_length = doc->views[index].size;
+        out->byte_stride = u64(doc->json["bufferViews"][index], "byteStride", 0);
+        return 0;
+    });
 }
 
 extern "C" int gltf_get_accessor(const gltf_doc *doc, size_t index, gltf_accessor *out)
 {
-    const ojson &arr = array_of(doc->json, "accessors");
-    if (index >= arr.size()) return -1;
-    const ojson &a = arr[index];
-    memset(out, 0, sizeof *out);
-    out->buffer_view = i64_or_none(a, "bufferView");
-    out->byte_offset = u64(a, "byteOffset", 0);
-    out->component_type = int32_t(std::min<uint64_t>(u64(a, "componentType", 0), 1u << 30));
-    out->normalized = a.value("normalized", false) ? 1 : 0;
-    out->count = u64(a, "count", 0);
-    int is_matrix = 0;
-    out->components = type_components(a.value("type", std::string()), &is_matrix);
-    out->is_matrix = is_matrix;
-    auto sp = a.find("sparse");
-    out->sparse_indices_view = out->sparse_values_view = -1;
-    if (sp != a.end()) {
-        out->has_sparse = 1;
-        out->sparse_count = u64(*sp, "count", 0);
-        const ojson &si = sp->value("indices", ojson::object());
-        const ojson &sv = sp->value("values", ojson::object());
-        out->sparse_indices_view = i64_or_none(si, "bufferView");
-        out->sparse_indices_offset = u64(si, "byteOffset", 0);
-        out->sparse_indices_type = int32_t(std::min<uint64_t>(u64(si, "componentType", 0), 1u << 30));
-        out->sparse_values_view = i64_or_none(sv, "bufferView");
-        out->sparse_values_offset = u64(sv, "byteOffset", 0);
-    }
-    return 0;
+    return guarded(doc, -1, [&] {
+        const ojson &arr = array_of(doc->json, "accessors");
+        if (index >= arr.size()) return -1;
+        const ojson &a = arr[index];
+        memset(out, 0, sizeof *out);
+        out->buffer_view = i64_or_none(a, "bufferView");
+        out->byte_offset = u64(a, "byteOffset", 0);
+        out->component_type = int32_t(std::min<uint64_t>(u64(a, "componentType", 0), 1u << 30));
+        out->normalized = a.value("normalized", false) ? 1 : 0;
+        out->count = u64(a, "count", 0);
+        int is_matrix = 0;
+        out->components = type_components(a.value("type", std::string()), &is_matrix);
+        out->is_matrix = is_matrix;
+        auto sp = a.find("sparse");
+        out->sparse_indices_view = out->sparse_values_view = -1;
+        if (sp != a.end()) {
+            out->has_sparse = 1;
+            out->sparse_count = u64(*sp, "count", 0);
+            const ojson &si = sp->value("indices", ojson::object());
+            const ojson &sv = sp->value("values", ojson::object());
+            out->sparse_indices_view = i64_or_none(si, "bufferView");
+            out->sparse_indices_offset = u64(si, "byteOffset", 0);
+            out->sparse_indices_type = int32_t(std::min<uint64_t>(u64(si, "componentType", 0), 1u << 30));
+            out->sparse_values_view = i64_or_none(sv, "bufferView");
+            out->sparse_values_offset = u64(sv, "byteOffset", 0);
+        }
+        return 0;
+    });
 }
 
 extern "C" size_t gltf_primitive_count(const gltf_doc *doc, size_t mesh)
@@ -1751,38 +1827,40 @@ extern "C" int64_t gltf_primitive_attribute(const gltf_primitive *g, const char 
 
 extern "C" int gltf_get_node(const gltf_doc *doc, size_t index, gltf_node *out)
 {
-    const ojson &nodes = array_of(doc->json, "nodes");
-    if (index >= nodes.size()) return -1;
-    const ojson &n = nodes[index];
-    memset(out, 0, sizeof *out);
-    out->mesh = i64_or_none(n, "mesh");
-    out->skin = i64_or_none(n, "skin");
-    out->camera = i64_or_none(n, "camera");
-    out->child_count = doc->node_children[index].size();
-    out->children = doc->node_children[index].data();
-    for (int i = 0; i < 16; ++i) out->matrix[i] = (i % 5 == 0) ? 1.0 : 0.0;
-    out->rotation[3] = 1.0;
-    out->scale[0] = out->scale[1] = out->scale[2] = 1.0;
-    auto copy = [&](const char *key, double *dst, size_t want) {
-        auto it = n.find(key);
-        if (it == n.end()) return;
-        for (size_t i = 0; i < want && i < it->size(); ++i) dst[i] = (*it)[i].get<double>();
-    };
-    if (n.contains("matrix")) {
-        out->has_matrix = 1;
-        copy("matrix", out->matrix, 16);
-    }
-    copy("translation", out->translation, 3);
-    copy("rotation", out->rotation, 4);
-    copy("scale", out->scale, 3);
-    out->weight_count = n.contains("weights") ? n["weights"].size() : 0;
-    out->lod_count = doc->node_lods[index].size();
-    out->lod_ids = doc->node_lods[index].data();
-    auto extras = n.find("extras");
-    out->has_screencoverage = extras != n.end() && extras->is_object() && extras->contains("MSFT_screencoverage");
-    auto extensions = n.find("extensions");
-    out->extension_count = extensions != n.end() && extensions->is_object() ? extensions->size() : 0;
-    return 0;
+    return guarded(doc, -1, [&] {
+        const ojson &nodes = array_of(doc->json, "nodes");
+        if (index >= nodes.size()) return -1;
+        const ojson &n = nodes[index];
+        memset(out, 0, sizeof *out);
+        out->mesh = i64_or_none(n, "mesh");
+        out->skin = i64_or_none(n, "skin");
+        out->camera = i64_or_none(n, "camera");
+        out->child_count = doc->node_children[index].size();
+        out->children = doc->node_children[index].data();
+        for (int i = 0; i < 16; ++i) out->matrix[i] = (i % 5 == 0) ? 1.0 : 0.0;
+        out->rotation[3] = 1.0;
+        out->scale[0] = out->scale[1] = out->scale[2] = 1.0;
+        auto copy = [&](const char *key, double *dst, size_t want) {
+            auto it = n.find(key);
+            if (it == n.end()) return;
+            for (size_t i = 0; i < want && i < it->size(); ++i) dst[i] = (*it)[i].get<double>();
+        };
+        if (n.contains("matrix")) {
+            out->has_matrix = 1;
+            copy("matrix", out->matrix, 16);
+        }
+        copy("translation", out->translation, 3);
+        copy("rotation", out->rotation, 4);
+        copy("scale", out->scale, 3);
+        out->weight_count = n.contains("weights") ? n["weights"].size() : 0;
+        out->lod_count = doc->node_lods[index].size();
+        out->lod_ids = doc->node_lods[index].data();
+        auto extras = n.find("extras");
+        out->has_screencoverage = extras != n.end() && extras->is_object() && extras->contains("MSFT_screencoverage");
+        auto extensions = n.find("extensions");
+        out->extension_count = extensions != n.end() && extensions->is_object() ? extensions->size() : 0;
+        return 0;
+    });
 }
 
 extern "C" int gltf_get_scene(const gltf_doc *doc, size_t index, gltf_scene *out)
@@ -1889,15 +1967,13 @@ extern "C" int64_t gltf_add_view(gltf_doc *doc, const void *bytes, size_t size, 
 extern "C" int64_t gltf_add_view_in(gltf_doc *doc, const void *bytes, size_t size, uint64_t byte_stride, int target,
                                     int slot)
 {
-    try {
+    return guarded(doc, int64_t(-1), [&] {
         const uint8_t *b = static_cast<const uint8_t *>(bytes);
         size_t v = add_owned_view(doc, std::vector<uint8_t>(b, b + size), target);
         if (byte_stride) doc->json["bufferViews"][v]["byteStride"] = byte_stride;
         doc->views[v].slot = slot == 1 ? 1 : 0;
         return int64_t(v);
-    } catch (...) {
-        return -1;
-    }
+    });
 }
 
 extern "C" int gltf_view_replaces(gltf_doc *doc, int64_t view, int64_t old_view)
@@ -1909,17 +1985,20 @@ extern "C" int gltf_view_replaces(gltf_doc *doc, int64_t view, int64_t old_view)
 
 extern "C" void gltf_sync_mesh_records(gltf_doc *doc)
 {
-    const ojson &meshes = array_of(doc->json, "meshes");
-    for (size_t m = doc->prims.size(); m < meshes.size(); ++m) {
-        doc->prims.emplace_back();
-        build_mesh_records(doc, m);
-    }
+    guarded(doc, 0, [&] {
+        const ojson &meshes = array_of(doc->json, "meshes");
+        for (size_t m = doc->prims.size(); m < meshes.size(); ++m) {
+            doc->prims.emplace_back();
+            build_mesh_records(doc, m);
+        }
+        return 0;
+    });
 }
 
 extern "C" int64_t gltf_append_json(gltf_doc *doc, const char *array, const char *json)
 {
-    before_edit(doc, "", {array, "-"}, false);
-    try {
+    return guarded(doc, int64_t(-1), [&]() -> int64_t {
+        before_edit(doc, "", {array, "-"}, false);
         ojson value = ojson::parse(json);
         if (!value.is_object()) return -1;
         if (!doc->json.contains(array)) doc->json[array] = ojson::array();
@@ -1927,14 +2006,12 @@ extern "C" int64_t gltf_append_json(gltf_doc *doc, const char *array, const char
         if (!arr.is_array()) return -1;
         arr.push_back(std::move(value));
         return int64_t(arr.size() - 1);
-    } catch (...) {
-        return -1;
-    }
+    });
 }
 
 extern "C" int gltf_set_json(gltf_doc *doc, const char *pointer, const char *json)
 {
-    try {
+    return guarded(doc, -1, [&] {
         ojson value = ojson::parse(json);
         const std::vector<std::string> t = pointer_tokens(pointer);
         before_edit(doc, pointer, t, false);
@@ -1942,15 +2019,12 @@ extern "C" int gltf_set_json(gltf_doc *doc, const char *pointer, const char *jso
         slot = std::move(value);
         after_reference_set(doc, t, slot);
         return 0;
-    } catch (...) {
-        doc->json_changed();
-        return -1;
-    }
+    });
 }
 
 extern "C" int gltf_remove_json(gltf_doc *doc, const char *pointer)
 {
-    try {
+    return guarded(doc, -1, [&] {
         before_edit(doc, pointer, pointer_tokens(pointer), true);
         ojson::json_pointer ptr(pointer);
         if (ptr.empty() || !doc->json.contains(ptr)) return -1;
@@ -1960,10 +2034,7 @@ extern "C" int gltf_remove_json(gltf_doc *doc, const char *pointer)
         else if (parent.is_array()) parent.erase(size_t(std::stoul(key)));
         else return -1;
         return 0;
-    } catch (...) {
-        doc->json_changed();
-        return -1;
-    }
+    });
 }
 
 // A printf-style JSON pointer in `out` (256 bytes); false when it does not fit.
@@ -1995,7 +2066,7 @@ extern "C" int gltf_remove_jsonf(gltf_doc *doc, const char *pointer_format, ...)
 
 extern "C" int gltf_copy_json(gltf_doc *doc, const char *from, const char *to)
 {
-    try {
+    return guarded(doc, -1, [&] {
         ojson::json_pointer src(from);
         if (!doc->json.contains(src)) return -1;
         ojson value = doc->json[src];
@@ -2005,10 +2076,7 @@ extern "C" int gltf_copy_json(gltf_doc *doc, const char *from, const char *to)
         slot = std::move(value);
         after_reference_set(doc, t, slot);
         return 0;
-    } catch (...) {
-        doc->json_changed();
-        return -1;
-    }
+    });
 }
 
 static const ojson *channels_of(const gltf_doc *doc, size_t animation)
@@ -2050,13 +2118,13 @@ extern "C" int gltf_get_channel(const gltf_doc *doc, size_t animation, size_t ch
 
 extern "C" char *gltf_get_json(const gltf_doc *doc, const char *pointer)
 {
-    try {
+    return guarded(doc, static_cast<char *>(nullptr), [&]() -> char * {
         ojson::json_pointer ptr(pointer);
         if (!doc->json.contains(ptr)) return nullptr;
-        return strdup(doc->json[ptr].dump().c_str());
-    } catch (...) {
-        return nullptr;
-    }
+        char *text = strdup(doc->json[ptr].dump().c_str());
+        if (!text) throw std::bad_alloc();
+        return text;
+    });
 }
 
 // Adds one to counts[i] for every reference to accessor i in the document (the
@@ -2112,17 +2180,21 @@ static std::vector<size_t> walk_accessor_refs(const gltf_doc *doc)
 
 extern "C" size_t gltf_accessor_refs(const gltf_doc *doc, size_t index)
 {
-    if (!doc->accessor_ref_counts_valid) {
-        doc->accessor_ref_counts = walk_accessor_refs(doc);
-        doc->accessor_ref_counts_valid = true;
-    }
-    return index < doc->accessor_ref_counts.size() ? doc->accessor_ref_counts[index] : 0;
+    return guarded(doc, size_t(0), [&] {
+        if (!doc->accessor_ref_counts_valid) {
+            doc->accessor_ref_counts = walk_accessor_refs(doc);
+            doc->accessor_ref_counts_valid = true;
+        }
+        return index < doc->accessor_ref_counts.size() ? doc->accessor_ref_counts[index] : 0;
+    });
 }
 
 extern "C" size_t gltf_accessor_refs_walk(const gltf_doc *doc, size_t index)
 {
-    const std::vector<size_t> counts = walk_accessor_refs(doc);
-    return index < counts.size() ? counts[index] : 0;
+    return guarded(doc, size_t(0), [&] {
+        const std::vector<size_t> counts = walk_accessor_refs(doc);
+        return index < counts.size() ? counts[index] : 0;
+    });
 }
 
 extern "C" size_t gltf_accessor_refs_at_load(const gltf_doc *doc, size_t index)
@@ -2132,16 +2204,21 @@ extern "C" size_t gltf_accessor_refs_at_load(const gltf_doc *doc, size_t index)
 
 extern "C" void gltf_use_extension(gltf_doc *doc, const char *name, int required)
 {
-    before_edit(doc, "", {"extensionsUsed", "-"}, false);
-    for (const char *list : {"extensionsUsed", "extensionsRequired"}) {
-        if (list[10] == 'R' && !required) continue;
-        ojson &arr = doc->json[list];
-        if (!arr.is_array()) arr = ojson::array();
-        bool present = false;
-        for (auto &n : arr) present = present || n == name;
-        if (!present) arr.push_back(name);
-    }
+    guarded(doc, 0, [&] {
+        before_edit(doc, "", {"extensionsUsed", "-"}, false);
+        for (const char *list : {"extensionsUsed", "extensionsRequired"}) {
+            if (list[10] == 'R' && !required) continue;
+            ojson &arr = doc->json[list];
+            if (!arr.is_array()) arr = ojson::array();
+            bool present = false;
+            for (auto &n : arr) present = present || n == name;
+            if (!present) arr.push_back(name);
+        }
+        return 0;
+    });
 }
+
+extern "C" int gltf_out_of_memory(const gltf_doc *doc) { return doc->out_of_memory ? 1 : 0; }
 
 // ---- writing -----------------------------------------------------------------------
 
@@ -2366,12 +2443,20 @@ extern "C" int gltf_serialize(const gltf_doc *doc, const char *out_path, gltf_ou
         snprintf(err, errlen, "the document's binary data was released (gltf_release_binary)");
         return GLTF_IO;
     }
+    if (doc->out_of_memory) {
+        snprintf(err, errlen, "out of memory while building the document");
+        return GLTF_INVALID;
+    }
     try {
         serialize(doc, out_path, out);
     } catch (const Failure &f) {
         gltf_free_files(out.data(), out.size());
         snprintf(err, errlen, "%s", f.msg.c_str());
         return f.code;
+    } catch (const std::bad_alloc &) {
+        gltf_free_files(out.data(), out.size());
+        snprintf(err, errlen, "out of memory while writing");
+        return GLTF_INVALID;
     } catch (const std::exception &e) {
         gltf_free_files(out.data(), out.size());
         snprintf(err, errlen, "cannot serialize (%s)", e.what());
@@ -2380,8 +2465,8 @@ extern "C" int gltf_serialize(const gltf_doc *doc, const char *out_path, gltf_ou
     *files = static_cast<gltf_out_file *>(malloc(sizeof(gltf_out_file) * (out.empty() ? 1 : out.size())));
     if (!*files) {
         gltf_free_files(out.data(), out.size());
-        snprintf(err, errlen, "out of memory");
-        return GLTF_IO;
+        snprintf(err, errlen, "out of memory while writing");
+        return GLTF_INVALID;
     }
     if (!out.empty()) memcpy(*files, out.data(), sizeof(gltf_out_file) * out.size());
     *file_count = out.size();

@@ -23,6 +23,12 @@
  *   data: URI images stay inside; an external image file is written beside the
  *   output under its original relative uri (so textures shared by several assets
  *   stay shared).
+ * - No C++ exception leaves a call. Out of memory: a call that runs out gives
+ *   its failure value (-1, NULL, 0) and marks the document
+ *   (gltf_out_of_memory), which gltf_serialize then refuses to write, since
+ *   an edit may be missing; a reserve set aside at start-up lets the
+ *   library's destructors, which allocate, unwind instead of ending the
+ *   process.
  * - It holds no algorithm of lodpipe's: it moves bytes and JSON.
  */
 #ifndef LODPIPE_GLTF_IO_H
@@ -224,6 +230,9 @@ size_t gltf_accessor_refs_walk(const gltf_doc *doc, size_t index);
 /* Adds name to extensionsUsed (and to extensionsRequired when required). */
 void gltf_use_extension(gltf_doc *doc, const char *name, int required);
 
+/* 1 when a call on the document ran out of memory (its edit may be missing). */
+int gltf_out_of_memory(const gltf_doc *doc);
+
 /* ---- writing ------------------------------------------------------------------ */
 
 typedef struct gltf_out_file {
@@ -233,7 +242,9 @@ typedef struct gltf_out_file {
 } gltf_out_file;
 
 /* Serializes the document for the output path `out_path` (only its name and
- * extension are used). Returns GLTF_OK with the files to write, or an error. */
+ * extension are used). Returns GLTF_OK with the files to write, or an error
+ * (GLTF_INVALID "out of memory ..." for a document gltf_out_of_memory marks,
+ * or when memory runs out while writing). */
 int gltf_serialize(const gltf_doc *doc, const char *out_path, gltf_out_file **files,
                    size_t *file_count, char *err, size_t errlen);
 void gltf_free_files(gltf_out_file *files, size_t file_count);
