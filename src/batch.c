@@ -239,7 +239,7 @@ static int add_job(batch *b, const char *rel)
 static int scan(batch *b, const char *rel_dir, int depth, lp_error *err)
 {
     char *dir_path = rel_dir[0] ? join_path(b->source_dir, rel_dir) : strdup(b->source_dir);
-    if (!dir_path) return lp_fail(err, LP_IO, "out of memory");
+    if (!dir_path) return lp_fail(err, LP_INVALID, "out of memory");
     DIR *d = opendir(dir_path);
     if (!d) {
         int rc = lp_fail(err, LP_IO, "%s: cannot read the folder (%s)", dir_path, strerror(errno));
@@ -254,13 +254,13 @@ static int scan(batch *b, const char *rel_dir, int depth, lp_error *err)
         char *full = rel ? join_path(b->source_dir, rel) : NULL;
         struct stat st;
         if (!rel || !full) {
-            rc = lp_fail(err, LP_IO, "out of memory");
+            rc = lp_fail(err, LP_INVALID, "out of memory");
         } else if (lstat(full, &st) == 0) {
             if (S_ISDIR(st.st_mode)) {
                 int is_output = st.st_dev == b->output_stat.st_dev && st.st_ino == b->output_stat.st_ino;
                 if (!is_output && depth < MAX_SCAN_DEPTH) rc = scan(b, rel, depth + 1, err);
             } else if (has_gltf_extension(e->d_name) && stat(full, &st) == 0 && S_ISREG(st.st_mode)) {
-                if (add_job(b, rel)) rc = lp_fail(err, LP_IO, "out of memory");
+                if (add_job(b, rel)) rc = lp_fail(err, LP_INVALID, "out of memory");
             }
         }
         free(rel);
@@ -434,11 +434,11 @@ static int write_manifest(batch *b, lp_error *err)
     jsonw_raw(&w, "\n]}\n");
     if (w.failed) {
         jsonw_free(&w);
-        return lp_fail(err, LP_IO, "out of memory");
+        return lp_fail(err, LP_INVALID, "out of memory");
     }
     char *path = join_path(b->output_dir, MANIFEST_NAME);
     gltf_out_file f = {(char *)MANIFEST_NAME, (uint8_t *)w.text, w.length};
-    int rc = path ? output_write_all(path, &f, 1, NULL, 0, NULL, 0, err) : lp_fail(err, LP_IO, "out of memory");
+    int rc = path ? output_write_all(path, &f, 1, NULL, 0, NULL, 0, err) : lp_fail(err, LP_INVALID, "out of memory");
     free(path);
     jsonw_free(&w);
     return rc;
@@ -1017,7 +1017,7 @@ static int write_job_config(batch *b, lp_error *err)
     if (config.run.threads == 0) config.run.threads = b->threads_per_job;
     size_t n = config_write(&config, CONFIG_TOML, NULL, 0);
     char *text = malloc(n + 1);
-    if (!text) return lp_fail(err, LP_IO, "out of memory");
+    if (!text) return lp_fail(err, LP_INVALID, "out of memory");
     config_write(&config, CONFIG_TOML, text, n + 1);
     snprintf(b->config_path, sizeof b->config_path, "%s/.lodpipe-batch-XXXXXX.toml", b->output_dir);
     int fd = mkstemps(b->config_path, 5);
@@ -1284,7 +1284,7 @@ static int prepare(batch *b, lp_error *err)
     char *manifest = join_path(b->output_dir, MANIFEST_NAME);
     struct stat st;
     int rc = LP_OK;
-    if (!manifest) rc = lp_fail(err, LP_IO, "out of memory");
+    if (!manifest) rc = lp_fail(err, LP_INVALID, "out of memory");
     else if (lstat(manifest, &st) == 0 && S_ISDIR(st.st_mode))
         rc = lp_fail(err, LP_IO, "%s: cannot write the cache manifest (Is a directory)", manifest);
     else if (access(b->output_dir, W_OK) != 0)
@@ -1301,7 +1301,7 @@ static int prepare(batch *b, lp_error *err)
     rc = scan(b, "", 0, err);
     if (rc) return rc;
     if (b->job_count) qsort(b->jobs, b->job_count, sizeof *b->jobs, by_relative_path); /* jobs is NULL when none */
-    if (compute_key_prefix(b)) return lp_fail(err, LP_IO, "out of memory");
+    if (compute_key_prefix(b)) return lp_fail(err, LP_INVALID, "out of memory");
     return LP_OK;
 }
 
@@ -1352,7 +1352,7 @@ int batch_run(const batch_options *options)
     b.source_dir = strip_slashes(options->source_dir);
     b.output_dir = strip_slashes(options->output_dir);
     lp_error err = {0, ""};
-    int rc = b.source_dir && b.output_dir ? prepare(&b, &err) : lp_fail(&err, LP_IO, "out of memory");
+    int rc = b.source_dir && b.output_dir ? prepare(&b, &err) : lp_fail(&err, LP_INVALID, "out of memory");
     if (rc) {
         lp_say("%s", err.msg);
         free_batch(&b);
@@ -1364,7 +1364,7 @@ int batch_run(const batch_options *options)
     if (check_planned_outputs(&b) != 0) {
         lp_say("%s: out of memory", b.output_dir);
         free_batch(&b);
-        return LP_IO;
+        return LP_INVALID;
     }
     const int cores = (int)lp_threads(0, 256);
     b.jobs_at_once = options->jobs > 0 ? options->jobs : cores;

@@ -652,7 +652,7 @@ static int write_primitive(gltf_doc *doc, uint32_t mesh, uint32_t prim, const gl
         snprintf(value, sizeof value, "%lld", (long long)index_accessor);
         if (ext.failed || gltf_set_jsonf(doc, value, "/meshes/%u/primitives/%u/indices", mesh, prim) != 0 ||
             gltf_set_jsonf(doc, ext.text, "/meshes/%u/primitives/%u/extensions/KHR_draco_mesh_compression", mesh, prim) != 0)
-            rc = lp_fail(err, LP_INVALID, "cannot write the Draco primitive");
+            rc = lp_fail(err, LP_INVALID, "out of memory writing the Draco primitive");
         gltf_remove_jsonf(doc, "/meshes/%u/primitives/%u/mode", mesh, prim); /* triangles */
     }
     jsonw_free(&ext);

@@ -99,8 +99,9 @@ static int set_json(gltf_doc *doc, lp_error *err, const char *value, const char 
     va_start(ap, fmt);
     vsnprintf(pointer, sizeof pointer, fmt, ap);
     va_end(ap);
-    if (gltf_set_json(doc, pointer, value) != 0) return lp_fail(err, LP_INVALID, "cannot set %s", pointer);
-    return LP_OK;
+    if (gltf_set_json(doc, pointer, value) == 0) return LP_OK;
+    if (gltf_out_of_memory(doc)) return lp_fail(err, LP_INVALID, "out of memory setting %s", pointer);
+    return lp_fail(err, LP_INVALID, "cannot set %s", pointer);
 }
 
 /* Copies the members `keys` (NULL-terminated; "a/b" reaches into an object)

@@ -289,7 +289,10 @@ static int write_document(const cli *c, const char *in, const gltf_doc *doc, con
     const size_t inputs = in ? gltf_external_file_count(doc) + 1 : 0;
     output_guard *guards = calloc(inputs + 3, sizeof *guards);
     size_t guard_count = 0;
-    if (!guards) return LP_IO;
+    if (!guards) {
+        lp_say("%s: out of memory", out);
+        return LP_INVALID;
+    }
     if (in && !(c->force && output_same_file(in, out))) {
         guards[guard_count++] = (output_guard){in, "the input"};
         for (size_t i = 0; i + 1 < inputs; ++i)
@@ -430,6 +433,16 @@ typedef struct obj_vertex_lines {
     size_t *line; /* vertex_count + 1 offsets */
 } obj_vertex_lines;
 
+/* Closes a stream from open_memstream; nonzero when a write to it failed or
+ * its buffer is gone (glibc's close reallocates the buffer to its final size
+ * and, when that fails, leaves *buf NULL and returns 0). */
+static int memstream_close(FILE *f, char *const *buf)
+{
+    int bad = ferror(f) != 0;
+    bad |= fclose(f) != 0;
+    return bad || !*buf;
+}
+
 static int format_vertex(FILE *f, const float *p)
 {
     return fprintf(f, "v %.9g %.9g %.9g\n", p[0], p[1], p[2]) < 0;
@@ -443,7 +456,7 @@ static int obj_vertex_lines_init(obj_vertex_lines *l, const weld_result *w)
     FILE *f = l->line ? open_memstream(&l->text, &l->size) : NULL;
     if (!f) {
         free(l->line);
-        return LP_IO;
+        return LP_INVALID;
     }
     int bad = 0;
     for (uint32_t v = 0; v < w->vertex_count && !bad; ++v) {
@@ -453,10 +466,10 @@ static int obj_vertex_lines_init(obj_vertex_lines *l, const weld_result *w)
     }
     long end = ftell(f);
     l->line[w->vertex_count] = (size_t)end;
-    if (fclose(f) || bad || end < 0) {
+    if (memstream_close(f, &l->text) || bad || end < 0) {
         free(l->text);
         free(l->line);
-        return LP_IO;
+        return LP_INVALID;
     }
     return LP_OK;
 }
@@ -516,10 +529,10 @@ static int write_obj(output_set *set, const char *path, const weld_result *w, co
         *at++ = '\n';
         bad = fwrite(line, 1, (size_t)(at - line), f) != (size_t)(at - line);
     }
-    if (!f || fclose(f) || bad) {
+    if (!f || memstream_close(f, &buf) || bad) {
         free(buf);
         lp_error e = {0, ""};
-        lp_fail(&e, LP_IO, "out of memory formatting the OBJ");
+        lp_fail(&e, LP_INVALID, "out of memory formatting the OBJ");
         return report(path, &e);
     }
     int rc = stage_bytes(set, path, buf, size);
@@ -591,7 +604,7 @@ static int cmd_simplify(const cli *c)
     FILE *j = open_memstream(&json, &json_size);
     /* every OBJ and the JSON appear together at the end, or none does */
     output_set *set = NULL;
-    if (!j) lp_fail(&err, LP_IO, "out of memory");
+    if (!j) lp_fail(&err, LP_INVALID, "out of memory");
     if (!j || output_set_begin(&set, &err)) {
         if (j) fclose(j);
         free(json);
@@ -627,7 +640,7 @@ static int cmd_simplify(const cli *c)
                 obj_vertex_lines_free(&lines);
             } else {
                 lp_error e = {0, ""};
-                lp_fail(&e, LP_IO, "out of memory formatting the level OBJs");
+                lp_fail(&e, LP_INVALID, "out of memory formatting the level OBJs");
                 report(dir, &e);
             }
             fprintf(j, "%s{\"mesh\":%u,\"name\":", first ? "" : ",", m);
@@ -657,7 +670,11 @@ static int cmd_simplify(const cli *c)
         weld_free(&w);
     }
     fprintf(j, "]}\n");
-    fclose(j);
+    if (memstream_close(j, &json) && !rc) {
+        lp_error e = {0, ""};
+        lp_fail(&e, LP_INVALID, "out of memory formatting simplify.json");
+        rc = report(dir, &e);
+    }
     if (!rc) {
         snprintf(path, sizeof path, "%s/simplify.json", dir);
         rc = stage_bytes(set, path, json, json_size);
@@ -689,7 +706,7 @@ static int depfile_of(const cli *c, const char *in, const char *out, const gltf_
     const char **deps = malloc((external + 2) * sizeof *deps);
     lp_error err = {0, ""};
     if (!deps) {
-        lp_fail(&err, LP_IO, "out of memory");
+        lp_fail(&err, LP_INVALID, "out of memory");
         return report(c->depfile, &err);
     }
     deps[count++] = in;
@@ -774,8 +791,9 @@ static int cmd_lod(const cli *c)
     draco_job *draco_jobs = calloc((size_t)s.mesh_count + 1, sizeof *draco_jobs);
     uint32_t draco_job_count = 0;
     if (!draco_jobs) {
+        lp_say("%s: out of memory", in);
         scene_free(&s);
-        return LP_IO;
+        return LP_INVALID;
     }
     jsonw j = {0};
     jsonw_raw(&j, "{\"input\":");
@@ -893,6 +911,10 @@ static int cmd_lod(const cli *c)
     jsonw_raw(&j, "]");
     if (!rc && draco) rc = draco_encode_all(&s, draco_jobs, draco_job_count, &draco_opt, &err);
     free(draco_jobs);
+    /* an edit of the document that ran out of memory may show up as another
+     * failure ("cannot set ..."); say what it was */
+    if (rc && gltf_out_of_memory(s.doc)) lp_fail(&err, LP_INVALID, "out of memory");
+    if (!rc && c->json && j.failed) rc = lp_fail(&err, LP_INVALID, "out of memory for the --json report");
     if (rc) {
         report(in, &err);
         jsonw_free(&j);
@@ -1246,7 +1268,10 @@ static int parse(int argc, char **argv, cli *c)
 {
     memset(c, 0, sizeof *c);
     const char **config_args = calloc((size_t)argc + 1, sizeof *config_args);
-    if (!config_args) return LP_IO;
+    if (!config_args) {
+        lp_say("the command line: out of memory");
+        return LP_INVALID;
+    }
     size_t config_argc = 0;
     int rc = LP_OK;
     for (int i = 1; i < argc && !rc; ++i) {

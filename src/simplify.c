@@ -429,7 +429,8 @@ static neighbour *find_or_add(scratch *sc, uint32_t x)
 }
 
 /* Builds u's neighbour table from faces_u; returns the number of wedge
- * classes at u (up to 3), or -1 on a non-manifold edge / no memory. */
+ * classes at u (up to 3), or -1 on a non-manifold edge, or on no memory
+ * (then sc->oom is set: running out must fail the level, not reject u). */
 static int classify_neighbours(const sim *s, scratch *sc, uint32_t u)
 {
     sc->nb_size = 0;
@@ -443,7 +444,7 @@ static int classify_neighbours(const sim *s, scratch *sc, uint32_t u)
         uint32_t next = s->corner_vertex[3 * f + (k + 1) % 3], prev = s->corner_vertex[3 * f + (k + 2) % 3];
         /* room for both first: then b's insertion cannot move a */
         if (sc->nb_size + 2 > sc->nb_cap && grow((void **)&sc->nb, &sc->nb_cap, sc->nb_size + 2, sizeof *sc->nb))
-            return -1;
+            return sc->oom = 1, -1;
         neighbour *a = find_or_add(sc, next), *b = find_or_add(sc, prev);
         if (a->count < 2) a->face[a->count] = f;
         a->count++;
