@@ -112,11 +112,16 @@ run: deps
 	@echo "wrote out/default_scene.glb"
 
 # ---- tests -----------------------------------------------------------------------
+# tests/oom.test.mjs preloads it to make one allocation fail (tests only).
+$(BUILD)/failmalloc.so: tests/tools/failmalloc.c
+	@mkdir -p $(dir $@)
+	$(CC) -std=c11 -Wall -Wextra -Werror -O2 -g -shared -fPIC -o $@ $< -ldl
+
 export ASAN_OPTIONS  := detect_leaks=1:abort_on_error=0:halt_on_error=1
 export UBSAN_OPTIONS := halt_on_error=1:print_stacktrace=1
 
 test: deps
-	$(MAKE) all asan hausdorff $(BUILD)/mesh_check fuzz-build
+	$(MAKE) all asan hausdorff $(BUILD)/mesh_check $(BUILD)/failmalloc.so fuzz-build
 	LODPIPE_BIN=$(abspath $(BUILD)/asan/lodpipe) LODPIPE_BUILD=$(abspath $(BUILD)) \
 	LODPIPE_SHARED=$(SHARED) node --test --test-concurrency=2 tests/
 	rm -rf $(BUILD)/fuzz/test-corpus

@@ -1,0 +1,119 @@
+// Out of memory (issue 6: never crash; a clear one-line error and no partial output). build/failmalloc.so
+// (tests/tools/failmalloc.c), preloaded, makes allocation number N fail; each case first counts a run's
+// allocations, then fails every STEP-th one in turn. Each run must:
+//   - not die by a signal (std::terminate from a C++ exception, a segfault on a NULL) or hang;
+//   - either exit 0 with exactly the output of the run without a failure (the program did without the
+//     memory: the C++ bridges' reserve, see third_party/gltf_io/gltf_io.h), nothing else on stderr but
+//     warnings;
+//   - or exit 2 with one line "lodpipe: FILE: ... out of memory ...", and leave no file behind.
+// Before this test, such runs ended in std::terminate (a json destructor that allocates, a bad_alloc
+// thrown through the C API) or, worse, exited 0 with different output: a failed edit of the document or
+// a full neighbour table in the simplifier was taken for "cannot" and silently left out.
+// The optimized build counts C and C++ allocations alike (--threads 1: the same numbering every run);
+// the ASan+UBSan build (LODPIPE_BIN) counts the C ones, with the sanitizers and LeakSanitizer watching
+// every error path.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import path from 'node:path';
+import {
+  corpusPath, describeRun, listFilesRecursive, lodpipeBin, oneLineErrorProblems, runHealthProblems, runLodpipe,
+  skipWithoutBinary, successStderrProblems, tempDir,
+} from './lib/gltf.mjs';
+import { BUILD } from './lib/lodcheck.mjs';
+
+const SHIM = path.join(BUILD, 'failmalloc.so');
+const PLAIN = path.join(BUILD, 'lodpipe');
+const skip = skipWithoutBinary() || (!fs.existsSync(SHIM) && `${SHIM} not built (make test builds it)`) ||
+  (!fs.existsSync(PLAIN) && `${PLAIN} not built`);
+
+/** JSON reports (simplify.json, --json) time each phase: the times are the one thing two runs may differ in. */
+const untimed = (text) => text.replace(/"seconds[a-z_]*":[-+0-9.eE]+/g, '"seconds":0');
+
+/** The files below dir with their bytes (a .json without its times), for comparing two runs' outputs. */
+function snapshot(dir) {
+  const files = listFilesRecursive(dir).filter((f) => !f.endsWith('/'));
+  const read = (f) => {
+    const bytes = fs.readFileSync(path.join(dir, f));
+    return f.endsWith('.json') ? Buffer.from(untimed(bytes.toString('utf8'))) : bytes;
+  };
+  return Object.fromEntries(files.map((f) => [f, read(f)]));
+}
+
+/**
+ * Runs `args` (OUTDIR standing for a fresh empty folder) once to count its allocations, then about
+ * `runs` times, failing allocation 1, 1 + step, ... (step = count / runs, rounded up). Returns the
+ * problems found and a tally of the outcomes.
+ */
+function sweep(t, bin, args, runs, asan) {
+  const env = (extra) => ({
+    LD_PRELOAD: SHIM,
+    // the library must come before the sanitizer runtime to see malloc; ASan would refuse that order
+    ...(asan ? { ASAN_OPTIONS: `${process.env.ASAN_OPTIONS || ''}:verify_asan_link_order=0` } : {}),
+    ...extra,
+  });
+  const root = tempDir(t, 'lodpipe-oom-');
+  const refDir = path.join(root, 'ref');
+  fs.mkdirSync(refDir);
+  const countFile = path.join(root, 'count');
+  const withDir = (dir) => args.map((a) => a.replaceAll('OUTDIR', dir));
+  const ref = runLodpipe(withDir(refDir), { bin, env: env({ FAIL_COUNT_FILE: countFile }) });
+  const problems = [];
+  if (ref.status !== 0 || !fs.existsSync(countFile)) return { problems: [`reference run failed: ${describeRun(ref)}`] };
+  const total = Number(fs.readFileSync(countFile, 'utf8'));
+  const expected = snapshot(refDir);
+  const stdoutOf = (r, dir) => untimed(r.stdout.replaceAll(dir, 'OUTDIR'));
+  const refStdout = stdoutOf(ref, refDir);
+  const step = Math.max(1, Math.ceil(total / runs));
+  const tally = { total, step, runs: 0, same: 0, refused: 0 };
+  for (let n = 1; n <= total; n += step) {
+    const dir = path.join(root, `run${n}`);
+    fs.mkdirSync(dir);
+    const r = runLodpipe(withDir(dir), { bin, env: env({ FAIL_AT: String(n) }), timeout: 60000 });
+    tally.runs++;
+    const p = [...runHealthProblems(r)];
+    const left = listFilesRecursive(dir);
+    if (r.status === 0) {
+      tally.same++;
+      p.push(...successStderrProblems(r.stderr));
+      const got = snapshot(dir);
+      const names = Object.keys(expected);
+      if (JSON.stringify(Object.keys(got)) !== JSON.stringify(names)) p.push(`exit 0 with files ${left} (expected ${names})`);
+      else for (const f of names) if (!got[f].equals(expected[f])) p.push(`exit 0 but ${f} differs from the run without a failure`);
+      if (stdoutOf(r, dir) !== refStdout) p.push('exit 0 but stdout differs from the run without a failure');
+    } else {
+      tally.refused++;
+      p.push(...oneLineErrorProblems(r.stderr.split('\n').filter((l) => !/warning/.test(l)).join('\n')));
+      if (r.status !== 2) p.push(`exit status ${r.status} (expected 2: out of memory)`);
+      if (!/out of memory/.test(r.stderr)) p.push('the error does not say "out of memory"');
+      if (left.length) p.push(`left behind: ${left.join(', ')}`);
+    }
+    if (p.length) problems.push(`allocation ${n} of ${total}: ${p.join('; ')}\n${describeRun(r)}`);
+    fs.rmSync(dir, { recursive: true, force: true });
+  }
+  return { problems, tally };
+}
+
+const DUCK = corpusPath('scenes/Duck.glb');
+// name, arguments, runs with the optimized build, runs with the ASan build
+const CASES = [
+  ['the main job, Duck', [DUCK, '-o', 'OUTDIR/duck.glb', '--threads', '1'], 250, 100],
+  ['the main job, Duck as .gltf with --draco and --json', [DUCK, '-o', 'OUTDIR/duck.gltf', '--draco', '--json',
+    '--threads', '1'], 150, 60],
+  ['the main job, a Draco input', [corpusPath('compressed/BoxDraco/BoxDraco.gltf'), '-o', 'OUTDIR/box.glb',
+    '--threads', '1'], 120, 80],
+  ['simplify, Duck', ['simplify', DUCK, 'OUTDIR', '--threads', '1'], 150, 80],
+  ['inspect, Duck', ['inspect', DUCK], 80, 30],
+];
+
+for (const [name, args, runsPlain, runsAsan] of CASES) {
+  for (const [build, bin, runs, asan] of [['optimized build', PLAIN, runsPlain, false],
+    ['ASan build', lodpipeBin, runsAsan, true]]) {
+    test(`out of memory at any allocation: ${name} (${build})`, { skip }, (t) => {
+      const { problems, tally } = sweep(t, bin, args, runs, asan);
+      t.diagnostic(JSON.stringify(tally || {}));
+      assert.deepEqual(problems.slice(0, 5), [], `${problems.length} runs went wrong`);
+      assert.ok(tally.refused > 0, 'no run was refused: the failures did not reach lodpipe');
+    });
+  }
+}
