@@ -9,6 +9,7 @@ typedef struct parser {
     jsonr *r;
     const char *s;
     size_t n, pos;
+    int out_of_memory;
 } parser;
 
 static void skip_space(parser *p)
@@ -24,7 +25,10 @@ static uint32_t add_token(parser *p, jsonr_type type, size_t start)
     if (r->count == r->capacity) {
         uint32_t cap = r->capacity ? (r->capacity > UINT32_MAX / 4 ? UINT32_MAX - 1 : r->capacity * 2) : 64;
         jsonr_token *t = realloc(r->tokens, (size_t)cap * sizeof *t);
-        if (!t) return JSONR_NONE;
+        if (!t) {
+            p->out_of_memory = 1;
+            return JSONR_NONE;
+        }
         r->tokens = t;
         r->capacity = cap;
     }
@@ -166,12 +170,12 @@ int jsonr_parse(jsonr *r, const char *text, size_t length)
 {
     memset(r, 0, sizeof *r);
     r->text = text;
-    parser p = {r, text, length, 0};
+    parser p = {r, text, length, 0, 0};
     int rc = parse_value(&p, 0);
     skip_space(&p);
     if (rc || p.pos != length) {
         jsonr_free(r);
-        return -1;
+        return p.out_of_memory ? -2 : -1;
     }
     return 0;
 }
@@ -197,16 +201,15 @@ uint32_t jsonr_element(const jsonr *r, uint32_t array, uint32_t index)
     return t;
 }
 
+static int string_is(const jsonr *r, uint32_t token, const char *key);
+
 uint32_t jsonr_member(const jsonr *r, uint32_t object, const char *key)
 {
     if (object >= r->count || r->tokens[object].type != JSONR_OBJECT) return JSONR_NONE;
     uint32_t t = object + 1;
     for (uint32_t i = 0; i < r->tokens[object].size; ++i) {
         uint32_t value = t + 1;
-        char *name = jsonr_string(r, t);
-        int match = name && strcmp(name, key) == 0;
-        free(name);
-        if (match) return value;
+        if (r->tokens[t].type == JSONR_STRING && string_is(r, t, key)) return value;
         t = r->tokens[value].end_token;
     }
     return JSONR_NONE;
@@ -248,6 +251,42 @@ static size_t put_utf8(char *out, unsigned cp)
     return 4;
 }
 
+/* Decodes the character of string text s[0..n) at *i into out (1 to 4 UTF-8
+ * bytes; the parser guaranteed a valid escape) and moves *i past it. Returns
+ * the byte count, or 0 for \u0000, which no C string can hold. */
+static size_t decode_char(const char *s, size_t n, size_t *i, char out[4])
+{
+    size_t at = *i;
+    *i = at + 1;
+    if (s[at] != '\\') {
+        out[0] = s[at];
+        return 1;
+    }
+    const char e = s[++at];
+    *i = at + 1;
+    switch (e) {
+    case 'b': out[0] = '\b'; return 1;
+    case 'f': out[0] = '\f'; return 1;
+    case 'n': out[0] = '\n'; return 1;
+    case 'r': out[0] = '\r'; return 1;
+    case 't': out[0] = '\t'; return 1;
+    case 'u': {
+        unsigned cp = read_hex4(s + at + 1);
+        at += 4;
+        if (cp >= 0xD800 && cp < 0xDC00 && at + 6 < n && s[at + 1] == '\\' && s[at + 2] == 'u') {
+            unsigned low = read_hex4(s + at + 3);
+            if (low >= 0xDC00 && low < 0xE000) {
+                cp = 0x10000 + ((cp - 0xD800) << 10) + (low - 0xDC00);
+                at += 6;
+            }
+        }
+        *i = at + 1;
+        return cp ? put_utf8(out, cp) : 0;
+    }
+    default: out[0] = e; return 1; /* " \ / */
+    }
+}
+
 char *jsonr_string(const jsonr *r, uint32_t token)
 {
     if (token >= r->count || r->tokens[token].type != JSONR_STRING) return NULL;
@@ -256,40 +295,32 @@ char *jsonr_string(const jsonr *r, uint32_t token)
     char *out = malloc(n + 1); /* unescaping never lengthens: \uXXXX (6) -> at most 3, a pair (12) -> 4 */
     if (!out) return NULL;
     size_t o = 0;
-    for (size_t i = 0; i < n; ++i) {
-        if (s[i] != '\\') {
-            out[o++] = s[i];
-            continue;
+    for (size_t i = 0; i < n;) {
+        const size_t k = decode_char(s, n, &i, out + o);
+        if (!k) {
+            free(out);
+            return NULL;
         }
-        char e = s[++i]; /* the parser guaranteed a valid escape */
-        switch (e) {
-        case 'b': out[o++] = '\b'; break;
-        case 'f': out[o++] = '\f'; break;
-        case 'n': out[o++] = '\n'; break;
-        case 'r': out[o++] = '\r'; break;
-        case 't': out[o++] = '\t'; break;
-        case 'u': {
-            unsigned cp = read_hex4(s + i + 1);
-            i += 4;
-            if (cp >= 0xD800 && cp < 0xDC00 && i + 6 < n && s[i + 1] == '\\' && s[i + 2] == 'u') {
-                unsigned low = read_hex4(s + i + 3);
-                if (low >= 0xDC00 && low < 0xE000) {
-                    cp = 0x10000 + ((cp - 0xD800) << 10) + (low - 0xDC00);
-                    i += 6;
-                }
-            }
-            if (cp == 0) {
-                free(out);
-                return NULL;
-            }
-            o += put_utf8(out + o, cp);
-            break;
-        }
-        default: out[o++] = e; break; /* " \ / */
-        }
+        o += k;
     }
     out[o] = 0;
     return out;
+}
+
+/* 1 when string token `token` decodes to key: compared as it is decoded, so
+ * that looking up a member allocates nothing (and cannot fail). */
+static int string_is(const jsonr *r, uint32_t token, const char *key)
+{
+    const char *s = r->text + r->tokens[token].start;
+    const size_t n = r->tokens[token].end - r->tokens[token].start, length = strlen(key);
+    size_t matched = 0;
+    for (size_t i = 0; i < n;) {
+        char bytes[4];
+        const size_t k = decode_char(s, n, &i, bytes);
+        if (!k || matched + k > length || memcmp(key + matched, bytes, k) != 0) return 0;
+        matched += k;
+    }
+    return matched == length;
 }
 
 double jsonr_number(const jsonr *r, uint32_t token, double fallback)

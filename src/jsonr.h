@@ -37,8 +37,8 @@ typedef struct jsonr {
 } jsonr;
 
 /* Parses text[0..length) (text[length] must be readable and is not used).
- * Returns 0, or -1 when the text is not one JSON value (or memory ran out);
- * on -1 nothing needs freeing. */
+ * Returns 0, -1 when the text is not one JSON value, or -2 when memory ran
+ * out; on failure nothing needs freeing. */
 int jsonr_parse(jsonr *r, const char *text, size_t length);
 void jsonr_free(jsonr *r);
 

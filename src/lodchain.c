@@ -1027,8 +1027,10 @@ static int fill_slot(const scene *s, uint32_t m, const weld_result *w, const sim
     slot->target = t;
     int rc = lodchain_mesh_triangles(s, m, w, NULL, (int)t, &slot->positions, &slot->triangles, &slot->lod0, err);
     if (rc) return rc;
-    slot->built = bvh_build(&slot->tree, slot->lod0.positions, slot->lod0.vertex_count, slot->lod0.triangles,
-                            slot->lod0.triangle_count) == BVH_OK;
+    const bvh_result built = bvh_build(&slot->tree, slot->lod0.positions, slot->lod0.vertex_count,
+                                       slot->lod0.triangles, slot->lod0.triangle_count);
+    if (built == BVH_ERROR_OUT_OF_MEMORY) return lp_fail(err, LP_INVALID, "out of memory measuring morph target %u", t);
+    slot->built = built == BVH_OK;
     for (uint32_t k = 0; k < level_count && !rc; ++k) {
         const simplify_level *level = &r->levels[kept[k]];
         if (level->positions)
@@ -1092,6 +1094,10 @@ static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, cons
         for (; t < targets && work.slot_count < batch && !rc; ++t)
             if (same[t] == t) rc = fill_slot(s, m, w, r, kept, levels, level_count, t, &slots[work.slot_count++], err);
         if (!rc) lp_team_for(lp_threads(threads, LP_TEAM_MAX), work.slot_count * level_count, morph_item, &work);
+        for (uint32_t i = 0; i < work.slot_count && !rc; ++i) /* -2: a level's tree could not be built */
+            for (uint32_t k = 0; k < level_count && !rc; ++k)
+                if (out->morph_errors[(size_t)k * targets + work.slots[i].target] < -1.5)
+                    rc = lp_fail(err, LP_INVALID, "out of memory measuring morph target %u", work.slots[i].target);
         for (uint32_t i = 0; i < work.slot_count; ++i) free_slot(&slots[i], level_count);
     }
     for (uint32_t t = 0; t < targets && !rc; ++t)

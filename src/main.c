@@ -940,14 +940,15 @@ typedef struct chain_record {
     double node, error;
 } chain_record;
 
-typedef enum chain_records_state { RECORDS_NONE, RECORDS_READ, RECORDS_MALFORMED } chain_records_state;
+typedef enum chain_records_state { RECORDS_NONE, RECORDS_READ, RECORDS_MALFORMED, RECORDS_OUT_OF_MEMORY } chain_records_state;
 
 /* Reads node n's extras.lodpipe.levels into records (malloc'd). RECORDS_NONE:
  * no extras.lodpipe (or extras not an object), nothing recorded;
  * RECORDS_MALFORMED, with the reason in `why`: extras.lodpipe is there but is
  * not an object whose `levels` is an array of objects, each with a
  * non-negative integer `node` (no node twice) and a finite non-negative
- * `error`. A gate must not pass a certificate it cannot read. */
+ * `error`. A gate must not pass a certificate it cannot read.
+ * RECORDS_OUT_OF_MEMORY: they could not be read for want of memory. */
 static chain_records_state read_chain_records(const gltf_doc *doc, uint32_t n, chain_record **records, uint32_t *count,
                                               char *why, size_t why_size)
 {
@@ -956,14 +957,15 @@ static chain_records_state read_chain_records(const gltf_doc *doc, uint32_t n, c
     char pointer[64];
     snprintf(pointer, sizeof pointer, "/nodes/%u/extras/lodpipe", n);
     char *text = gltf_get_json(doc, pointer);
-    if (!text) return RECORDS_NONE;
+    if (!text) return gltf_out_of_memory(doc) ? RECORDS_OUT_OF_MEMORY : RECORDS_NONE;
     jsonr r;
     chain_records_state state = RECORDS_MALFORMED;
     snprintf(why, why_size, "extras.lodpipe.levels is not an array");
-    if (jsonr_parse(&r, text, strlen(text)) != 0) {
+    const int parsed = jsonr_parse(&r, text, strlen(text));
+    if (parsed != 0) {
         snprintf(why, why_size, "extras.lodpipe cannot be read");
         free(text);
-        return RECORDS_MALFORMED;
+        return parsed == -2 ? RECORDS_OUT_OF_MEMORY : RECORDS_MALFORMED;
     }
     const uint32_t levels = r.tokens[0].type == JSONR_OBJECT ? jsonr_member(&r, 0, "levels") : JSONR_NONE;
     if (levels != JSONR_NONE && r.tokens[levels].type == JSONR_ARRAY) {
@@ -990,7 +992,7 @@ static chain_records_state read_chain_records(const gltf_doc *doc, uint32_t n, c
                 break;
             }
         }
-        if (!out) snprintf(why, why_size, "out of memory");
+        if (!out) state = RECORDS_OUT_OF_MEMORY;
         if (out && k == size) {
             state = RECORDS_READ;
             *records = out;
@@ -1066,6 +1068,7 @@ static int cmd_check(const cli *c)
         char malformed[160];
         const chain_records_state state =
             read_chain_records(s.doc, n, &records, &record_count, malformed, sizeof malformed);
+        if (state == RECORDS_OUT_OF_MEMORY) rc = LP_INVALID;
         /* LOD0's own recorded error (Draco: its quantization, else 0): the
          * errors are against the original surface, so a level and the file's
          * LOD0 are within the sum of both (triangle inequality). The original
@@ -1118,6 +1121,10 @@ static int cmd_check(const cli *c)
                 break;
             }
             double measured = measure_two_sided_with(&a, &a_tree, &b, spacing);
+            if (measured < -1.5) { /* the level's BVH: out of memory */
+                rc = LP_INVALID;
+                break;
+            }
             const double allowed = recorded + lod0_error;
             int ok = have && measured >= 0 && measured <= allowed * (1 + 1e-9) + 1e-12 * base->diagonal;
             scene_local_transform(&s, (uint32_t)node->lod_ids[k], lod_local);

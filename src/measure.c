@@ -104,7 +104,7 @@ static double one_sided(const measure_mesh *a, const extent *a_extent, const mea
 {
     if (b->triangle_count == 0) return -1.0;
     bvh tree;
-    if (bvh_build(&tree, b->positions, b->vertex_count, b->triangles, b->triangle_count) != BVH_OK) return -1.0;
+    if (bvh_build(&tree, b->positions, b->vertex_count, b->triangles, b->triangle_count) != BVH_OK) return -2.0;
     double worst = sample_all(a, a_extent, &tree, b_extent, spacing);
     bvh_free(&tree);
     return worst;
@@ -120,6 +120,7 @@ double measure_two_sided(const measure_mesh *a, const measure_mesh *b, double sp
 {
     const extent ea = extent_of(a), eb = extent_of(b);
     double ab = one_sided(a, &ea, b, &eb, spacing), ba = one_sided(b, &eb, a, &ea, spacing);
+    if (ab < -1.5 || ba < -1.5) return -2.0;
     if (ab < 0 || ba < 0) return -1.0;
     return ab > ba ? ab : ba;
 }
@@ -128,6 +129,7 @@ double measure_two_sided_with(const measure_mesh *a, const bvh *a_tree, const me
 {
     const extent ea = extent_of(a), eb = extent_of(b);
     double ab = one_sided(a, &ea, b, &eb, spacing);
+    if (ab < -1.5) return -2.0;
     if (ab < 0 || a->triangle_count == 0) return -1.0;
     double ba = sample_all(b, &eb, a_tree, &ea, spacing);
     return ab > ba ? ab : ba;

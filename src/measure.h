@@ -24,10 +24,11 @@ typedef struct measure_mesh {
 
 /* max over sample points p of A of d(p, B); samples: every vertex and a
  * barycentric grid on each triangle with spacing at most `spacing`
- * (at most 64 x 64 per triangle). Returns -1 when B is empty or on failure. */
+ * (at most 64 x 64 per triangle). Returns -1 when B is empty, -2 when B's
+ * BVH cannot be built (out of memory). */
 double measure_one_sided(const measure_mesh *a, const measure_mesh *b, double spacing);
 
-/* max of both directions. */
+/* max of both directions (-1: a side is empty; -2: out of memory). */
 double measure_two_sided(const measure_mesh *a, const measure_mesh *b, double spacing);
 
 /* The same with the BVH of `a` built once for several b (a_tree over a). */

@@ -121,7 +121,14 @@ int scene_mesh_stretch(const scene *s, uint32_t node, double *stretch, lp_error 
     double best = 0.0;
     /* joints: a JSON array of node indices (the loader checked them) */
     jsonr r = {0};
-    const uint32_t joint_count = joints && jsonr_parse(&r, joints, strlen(joints)) == 0 ? jsonr_size(&r, 0) : 0;
+    const int parsed = joints ? jsonr_parse(&r, joints, strlen(joints)) : -1;
+    /* for want of memory the stretch would come out smaller, not fail */
+    if (parsed == -2 || gltf_out_of_memory(s->doc) || strstr(unread.msg, "out of memory")) {
+        free(joints);
+        free(ibm);
+        return lp_fail(err, LP_INVALID, "nodes[%u]: out of memory reading skins[%lld]", node, (long long)skin);
+    }
+    const uint32_t joint_count = parsed == 0 ? jsonr_size(&r, 0) : 0;
     for (uint32_t k = 0; k < joint_count; ++k) {
         const double j = jsonr_number(&r, jsonr_element(&r, 0, k), -1.0);
         if (!(j >= 0 && j < s->node_count)) continue;

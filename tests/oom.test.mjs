@@ -53,6 +53,7 @@ function sweep(t, bin, args, runs, asan) {
     ...extra,
   });
   const root = tempDir(t, 'lodpipe-oom-');
+  if (typeof args === 'function') args = args(root);
   const refDir = path.join(root, 'ref');
   fs.mkdirSync(refDir);
   const countFile = path.join(root, 'count');
@@ -104,6 +105,14 @@ const CASES = [
     '--threads', '1'], 120, 80],
   ['simplify, Duck', ['simplify', DUCK, 'OUTDIR', '--threads', '1'], 150, 80],
   ['inspect, Duck', ['inspect', DUCK], 80, 30],
+  ['the main job, CesiumMan (a skin, an animation)', [corpusPath('animated/CesiumMan.glb'), '-o', 'OUTDIR/man.glb',
+    '--threads', '1'], 120, 60],
+  ['check, on the main job\'s Duck', (root) => {
+    const chain = path.join(root, 'duck_lod.glb');
+    const r = runLodpipe([DUCK, '-o', chain, '--quiet'], { bin: PLAIN });
+    assert.equal(r.status, 0, describeRun(r));
+    return ['check', chain];
+  }, 100, 40],
 ];
 
 for (const [name, args, runsPlain, runsAsan] of CASES) {

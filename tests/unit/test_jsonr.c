@@ -1,6 +1,6 @@
 /* Unit tests for src/jsonr: members and elements of nested values, string
- * unescaping (UTF-8 from \u escapes and surrogate pairs), and rejection of
- * text that is not exactly one JSON value. */
+ * unescaping (UTF-8 from \u escapes and surrogate pairs), member lookup by
+ * escaped keys, and rejection of text that is not exactly one JSON value. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -45,6 +45,25 @@ static void unicode_escapes(void)
     jsonr_free(&r);
 }
 
+/* jsonr_member compares keys as they decode, without allocating: escaped
+ * keys match their decoded text, and a key is not matched by its prefix,
+ * by a longer key, or through a \u0000. */
+static void escaped_keys(void)
+{
+    const char *text = "{\"le\\u0076els\": 1, \"q\\\"\\\\\": 2, \"\\u00e9\\ud83d\\ude00\": 3, \"ab\": 4, \"a\\u0000\": 5}";
+    jsonr r;
+    CHECK(jsonr_parse(&r, text, strlen(text)) == 0, "parses");
+    if (!r.count) return;
+    CHECK(jsonr_number(&r, jsonr_member(&r, 0, "levels"), 0) == 1, "\\u0076 matches v");
+    CHECK(jsonr_number(&r, jsonr_member(&r, 0, "q\"\\"), 0) == 2, "escaped quote and backslash");
+    CHECK(jsonr_number(&r, jsonr_member(&r, 0, "\xc3\xa9\xf0\x9f\x98\x80"), 0) == 3, "UTF-8 and a surrogate pair");
+    CHECK(jsonr_member(&r, 0, "level") == JSONR_NONE, "a prefix of a key");
+    CHECK(jsonr_member(&r, 0, "levelss") == JSONR_NONE, "a key longer than any");
+    CHECK(jsonr_number(&r, jsonr_member(&r, 0, "ab"), 0) == 4, "ab");
+    CHECK(jsonr_member(&r, 0, "a") == JSONR_NONE, "a\\u0000 is not a");
+    jsonr_free(&r);
+}
+
 static void rejects_non_json(void)
 {
     static const char *const kBad[] = {"", "{", "[1,]", "{\"a\" 1}", "01", "1.", "-", "tru", "\"a", "\"\\x\"",
@@ -66,6 +85,7 @@ int main(void)
 {
     RUN(nested_lookups);
     RUN(unicode_escapes);
+    RUN(escaped_keys);
     RUN(rejects_non_json);
     return check_summary();
 }
