@@ -99,9 +99,8 @@ static int set_json(gltf_doc *doc, lp_error *err, const char *value, const char 
     va_start(ap, fmt);
     vsnprintf(pointer, sizeof pointer, fmt, ap);
     va_end(ap);
-    if (gltf_set_json(doc, pointer, value) == 0) return LP_OK;
-    if (gltf_out_of_memory(doc)) return lp_fail(err, LP_INVALID, "out of memory setting %s", pointer);
-    return lp_fail(err, LP_INVALID, "cannot set %s", pointer);
+    if (gltf_set_json(doc, pointer, value) != 0) return lp_fail(err, LP_INVALID, "cannot set %s", pointer);
+    return LP_OK;
 }
 
 /* Copies the members `keys` (NULL-terminated; "a/b" reaches into an object)
@@ -1094,9 +1093,9 @@ static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, cons
         for (; t < targets && work.slot_count < batch && !rc; ++t)
             if (same[t] == t) rc = fill_slot(s, m, w, r, kept, levels, level_count, t, &slots[work.slot_count++], err);
         if (!rc) lp_team_for(lp_threads(threads, LP_TEAM_MAX), work.slot_count * level_count, morph_item, &work);
-        for (uint32_t i = 0; i < work.slot_count && !rc; ++i) /* -2: a level's tree could not be built */
+        for (uint32_t i = 0; i < work.slot_count && !rc; ++i) /* a level's tree could not be built */
             for (uint32_t k = 0; k < level_count && !rc; ++k)
-                if (out->morph_errors[(size_t)k * targets + work.slots[i].target] < -1.5)
+                if (out->morph_errors[(size_t)k * targets + work.slots[i].target] == MEASURE_NO_MEMORY)
                     rc = lp_fail(err, LP_INVALID, "out of memory measuring morph target %u", work.slots[i].target);
         for (uint32_t i = 0; i < work.slot_count; ++i) free_slot(&slots[i], level_count);
     }

@@ -1121,7 +1121,7 @@ static int cmd_check(const cli *c)
                 break;
             }
             double measured = measure_two_sided_with(&a, &a_tree, &b, spacing);
-            if (measured < -1.5) { /* the level's BVH: out of memory */
+            if (measured == MEASURE_NO_MEMORY) {
                 rc = LP_INVALID;
                 break;
             }

@@ -102,9 +102,10 @@ static double sample_all(const measure_mesh *a, const extent *a_extent, const bv
 static double one_sided(const measure_mesh *a, const extent *a_extent, const measure_mesh *b, const extent *b_extent,
                         double spacing)
 {
-    if (b->triangle_count == 0) return -1.0;
+    if (b->triangle_count == 0) return MEASURE_EMPTY;
     bvh tree;
-    if (bvh_build(&tree, b->positions, b->vertex_count, b->triangles, b->triangle_count) != BVH_OK) return -2.0;
+    if (bvh_build(&tree, b->positions, b->vertex_count, b->triangles, b->triangle_count) != BVH_OK)
+        return MEASURE_NO_MEMORY;
     double worst = sample_all(a, a_extent, &tree, b_extent, spacing);
     bvh_free(&tree);
     return worst;
@@ -120,8 +121,8 @@ double measure_two_sided(const measure_mesh *a, const measure_mesh *b, double sp
 {
     const extent ea = extent_of(a), eb = extent_of(b);
     double ab = one_sided(a, &ea, b, &eb, spacing), ba = one_sided(b, &eb, a, &ea, spacing);
-    if (ab < -1.5 || ba < -1.5) return -2.0;
-    if (ab < 0 || ba < 0) return -1.0;
+    if (ab == MEASURE_NO_MEMORY || ba == MEASURE_NO_MEMORY) return MEASURE_NO_MEMORY;
+    if (ab < 0 || ba < 0) return MEASURE_EMPTY;
     return ab > ba ? ab : ba;
 }
 
@@ -129,8 +130,8 @@ double measure_two_sided_with(const measure_mesh *a, const bvh *a_tree, const me
 {
     const extent ea = extent_of(a), eb = extent_of(b);
     double ab = one_sided(a, &ea, b, &eb, spacing);
-    if (ab < -1.5) return -2.0;
-    if (ab < 0 || a->triangle_count == 0) return -1.0;
+    if (ab == MEASURE_NO_MEMORY) return MEASURE_NO_MEMORY;
+    if (ab < 0 || a->triangle_count == 0) return MEASURE_EMPTY;
     double ba = sample_all(b, &eb, a_tree, &ea, spacing);
     return ab > ba ? ab : ba;
 }

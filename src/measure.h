@@ -22,13 +22,18 @@ typedef struct measure_mesh {
     uint32_t triangle_count;
 } measure_mesh;
 
+/* What the measures return when they cannot measure: a side is empty, or a
+ * side's BVH cannot be built (out of memory). */
+#define MEASURE_EMPTY (-1.0)
+#define MEASURE_NO_MEMORY (-2.0)
+
 /* max over sample points p of A of d(p, B); samples: every vertex and a
  * barycentric grid on each triangle with spacing at most `spacing`
- * (at most 64 x 64 per triangle). Returns -1 when B is empty, -2 when B's
- * BVH cannot be built (out of memory). */
+ * (at most 64 x 64 per triangle). MEASURE_EMPTY when B is empty,
+ * MEASURE_NO_MEMORY when its BVH cannot be built. */
 double measure_one_sided(const measure_mesh *a, const measure_mesh *b, double spacing);
 
-/* max of both directions (-1: a side is empty; -2: out of memory). */
+/* max of both directions (MEASURE_EMPTY, MEASURE_NO_MEMORY as above). */
 double measure_two_sided(const measure_mesh *a, const measure_mesh *b, double spacing);
 
 /* The same with the BVH of `a` built once for several b (a_tree over a). */

@@ -100,9 +100,10 @@ void *calloc(size_t a, size_t b)
 void *realloc(void *p, size_t n)
 {
     resolve();
-    if (is_early(p)) {
+    if (is_early(p)) { /* its size is unknown: copy what the early store holds from p on, at most n */
+        const size_t room = (size_t)(early + sizeof early - (char *)p);
         void *q = malloc(n);
-        if (q) memcpy(q, p, n < (size_t)(early + sizeof early - (char *)p) ? n : (size_t)(early + sizeof early - (char *)p));
+        if (q) memcpy(q, p, n < room ? n : room);
         return q;
     }
     if (fail_now()) return errno = ENOMEM, NULL;

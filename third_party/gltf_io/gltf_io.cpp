@@ -1102,12 +1102,15 @@ bool read_external_file(std::vector<unsigned char> *out, std::string *err, const
     return false;
 }
 
+// tinygltf's file system, with read_external_file as its reader.
+const tinygltf::FsCallbacks kFileSystem = {&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_external_file,
+                                           &tinygltf::WriteWholeFile, nullptr};
+
 void load_with_tinygltf(gltf_doc *doc, const ojson &root, bool glb, const uint8_t *bin, size_t bin_size)
 {
     tinygltf::TinyGLTF loader;
     loader.SetImageLoader(load_image_as_is, nullptr);
-    loader.SetFsCallbacks({&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_external_file,
-                           &tinygltf::WriteWholeFile, nullptr});
+    loader.SetFsCallbacks(kFileSystem);
     std::string err, warn;
     const std::string text = json_for_tinygltf(root, doc->dir).dump();
     bool ok;
@@ -1254,8 +1257,7 @@ void load_fallback_buffers(gltf_doc *doc, const std::vector<size_t> &wanted, con
         reduced["buffers"].push_back(one);
     }
     tinygltf::TinyGLTF loader;
-    loader.SetFsCallbacks({&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_external_file,
-                           &tinygltf::WriteWholeFile, nullptr});
+    loader.SetFsCallbacks(kFileSystem);
     tinygltf::Model model;
     std::string err, warn;
     const std::string text = reduced.dump();
