@@ -87,7 +87,8 @@ typedef enum job_state { JOB_SKIPPED_SHARD, JOB_PENDING, JOB_RUNNING, JOB_CACHED
 typedef struct capture {
     char *bytes;
     size_t size, capacity;
-    int fd; /* -1 once at end of file */
+    int fd;            /* -1 once at end of file */
+    int out_of_memory; /* bytes were dropped for want of memory */
 } capture;
 
 typedef struct job {
@@ -239,10 +240,11 @@ static int add_job(batch *b, const char *rel)
 static int scan(batch *b, const char *rel_dir, int depth, lp_error *err)
 {
     char *dir_path = rel_dir[0] ? join_path(b->source_dir, rel_dir) : strdup(b->source_dir);
-    if (!dir_path) return lp_fail(err, LP_INVALID, "out of memory");
+    if (!dir_path) return lp_fail(err, LP_INVALID, "%s: out of memory", b->source_dir);
     DIR *d = opendir(dir_path);
     if (!d) {
-        int rc = lp_fail(err, LP_IO, "%s: cannot read the folder (%s)", dir_path, strerror(errno));
+        int rc = errno == ENOMEM ? lp_fail(err, LP_INVALID, "%s: out of memory", dir_path)
+                                 : lp_fail(err, LP_IO, "%s: cannot read the folder (%s)", dir_path, strerror(errno));
         free(dir_path);
         return rc;
     }
@@ -254,13 +256,13 @@ static int scan(batch *b, const char *rel_dir, int depth, lp_error *err)
         char *full = rel ? join_path(b->source_dir, rel) : NULL;
         struct stat st;
         if (!rel || !full) {
-            rc = lp_fail(err, LP_INVALID, "out of memory");
+            rc = lp_fail(err, LP_INVALID, "%s: out of memory", b->source_dir);
         } else if (lstat(full, &st) == 0) {
             if (S_ISDIR(st.st_mode)) {
                 int is_output = st.st_dev == b->output_stat.st_dev && st.st_ino == b->output_stat.st_ino;
                 if (!is_output && depth < MAX_SCAN_DEPTH) rc = scan(b, rel, depth + 1, err);
             } else if (has_gltf_extension(e->d_name) && stat(full, &st) == 0 && S_ISREG(st.st_mode)) {
-                if (add_job(b, rel)) rc = lp_fail(err, LP_INVALID, "out of memory");
+                if (add_job(b, rel)) rc = lp_fail(err, LP_INVALID, "%s: out of memory", b->source_dir);
             }
         }
         free(rel);
@@ -434,11 +436,17 @@ static int write_manifest(batch *b, lp_error *err)
     jsonw_raw(&w, "\n]}\n");
     if (w.failed) {
         jsonw_free(&w);
-        return lp_fail(err, LP_INVALID, "out of memory");
+        return lp_fail(err, LP_INVALID, "%s: out of memory writing the cache manifest", b->output_dir);
     }
     char *path = join_path(b->output_dir, MANIFEST_NAME);
     gltf_out_file f = {(char *)MANIFEST_NAME, (uint8_t *)w.text, w.length};
-    int rc = path ? output_write_all(path, &f, 1, NULL, 0, NULL, 0, err) : lp_fail(err, LP_INVALID, "out of memory");
+    int rc = path ? output_write_all(path, &f, 1, NULL, 0, NULL, 0, err)
+                  : lp_fail(err, LP_INVALID, "%s: out of memory writing the cache manifest", b->output_dir);
+    if (rc && path) { /* output.c's messages leave the file to the caller, as report() in main.c does */
+        char msg[sizeof err->msg];
+        snprintf(msg, sizeof msg, "%s", err->msg);
+        lp_fail(err, rc, "%s: %s", path, msg);
+    }
     free(path);
     jsonw_free(&w);
     return rc;
@@ -468,8 +476,20 @@ static int compute_key_prefix(batch *b)
     return 0;
 }
 
+/* Reading back what a job read and wrote: the failures are told apart, so
+ * that the batch running out of memory says so (exit 2) instead of blaming
+ * the job. */
+enum { SUMMARY_OK = 0, SUMMARY_UNREADABLE = -1, SUMMARY_NO_MEMORY = -2 };
+
+/* sha256_file_hex's result as a SUMMARY_* value (fopen allocates). */
+static int hash_result(int rc)
+{
+    return !rc ? SUMMARY_OK : errno == ENOMEM ? SUMMARY_NO_MEMORY : SUMMARY_UNREADABLE;
+}
+
 /* Hashes every input of r as it is now (refreshing r's hashes) and derives
- * the key. Returns -1 when an input cannot be read. */
+ * the key. Returns SUMMARY_OK, SUMMARY_UNREADABLE when an input cannot be
+ * read, or SUMMARY_NO_MEMORY. */
 static int compute_key(const batch *b, const char *rel, record *r)
 {
     sha256_ctx ctx;
@@ -480,9 +500,9 @@ static int compute_key(const batch *b, const char *rel, record *r)
     for (size_t i = 0; i < r->inputs.count; ++i) {
         file_ref *f = &r->inputs.items[i];
         char *path = resolve_ref(b->source_dir, f);
-        int rc = path ? sha256_file_hex(path, f->sha256) : -1;
+        int rc = !path ? SUMMARY_NO_MEMORY : hash_result(sha256_file_hex(path, f->sha256));
         free(path);
-        if (rc) return -1;
+        if (rc) return rc;
         sha256_update(&ctx, f->as_opened ? "opened " : "input ", f->as_opened ? 7 : 6);
         sha256_update(&ctx, f->name, strlen(f->name) + 1);
         sha256_update(&ctx, f->sha256, SHA256_HEX - 1);
@@ -615,8 +635,9 @@ static int start_job(batch *b, job *j)
 {
     int out_pipe[2] = {-1, -1}, err_pipe[2] = {-1, -1};
     if (make_parent_folders(j->output) != 0) {
-        j->exit_code = LP_IO;
-        lp_say("%s: cannot create its output folder (%s)", j->output, strerror(errno));
+        j->exit_code = errno == ENOMEM ? LP_INVALID : LP_IO;
+        if (errno == ENOMEM) lp_say("%s: out of memory creating its output folder", j->output);
+        else lp_say("%s: cannot create its output folder (%s)", j->output, strerror(errno));
         return -1;
     }
     if (pipe(out_pipe) || pipe(err_pipe)) {
@@ -645,29 +666,36 @@ static int start_job(batch *b, job *j)
     if (b->opt->allow_external_uris) argv[n++] = "--allow-external-uris";
     if (b->opt->quiet) argv[n++] = "--quiet";
     argv[n] = NULL;
+    /* (the file actions allocate: a job whose output did not go to the
+     * pipes would print into the batch's own and leave no summary) */
     posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
-    posix_spawn_file_actions_adddup2(&actions, err_pipe[1], STDERR_FILENO);
-    /* SIGTERM is how the batch stops a job: the job must not inherit it
-     * ignored (stopsig leaves an ignored signal ignored) */
-    posix_spawnattr_t attr;
-    posix_spawnattr_init(&attr);
-    sigset_t term;
-    sigemptyset(&term);
-    sigaddset(&term, SIGTERM);
-    posix_spawnattr_setsigdefault(&attr, &term);
-    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGDEF);
-    int rc = posix_spawn(&j->pid, b->self, &actions, &attr, argv, environ);
-    posix_spawnattr_destroy(&attr);
-    posix_spawn_file_actions_destroy(&actions);
+    int rc = posix_spawn_file_actions_init(&actions);
+    if (!rc) {
+        rc = posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
+        if (!rc) rc = posix_spawn_file_actions_adddup2(&actions, err_pipe[1], STDERR_FILENO);
+        /* SIGTERM is how the batch stops a job: the job must not inherit it
+         * ignored (stopsig leaves an ignored signal ignored) */
+        posix_spawnattr_t attr;
+        if (!rc) rc = posix_spawnattr_init(&attr);
+        if (!rc) {
+            sigset_t term;
+            sigemptyset(&term);
+            sigaddset(&term, SIGTERM);
+            posix_spawnattr_setsigdefault(&attr, &term);
+            posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGDEF);
+            rc = posix_spawn(&j->pid, b->self, &actions, &attr, argv, environ);
+            posix_spawnattr_destroy(&attr);
+        }
+        posix_spawn_file_actions_destroy(&actions);
+    }
     close(out_pipe[1]);
     close(err_pipe[1]);
     if (rc != 0) {
         close(out_pipe[0]);
         close(err_pipe[0]);
-        j->exit_code = LP_IO;
-        lp_say("%s: cannot start %s (%s)", j->source, b->self, strerror(rc));
+        j->exit_code = rc == ENOMEM ? LP_INVALID : LP_IO;
+        if (rc == ENOMEM) lp_say("%s: out of memory starting its job", j->source);
+        else lp_say("%s: cannot start %s (%s)", j->source, b->self, strerror(rc));
         return -1;
     }
     fcntl(out_pipe[0], F_SETFL, O_NONBLOCK);
@@ -697,8 +725,10 @@ static void drain(capture *c)
         if (keep && c->size + keep + 1 > c->capacity) {
             size_t cap = 2 * (c->size + keep + 1);
             char *p = realloc(c->bytes, cap);
-            if (!p) keep = 0;
-            else {
+            if (!p) {
+                keep = 0;
+                c->out_of_memory = 1;
+            } else {
                 c->bytes = p;
                 c->capacity = cap;
             }
@@ -729,23 +759,28 @@ static int ref_from_path(const char *base, char *path, file_ref *f)
 static int refs_from_json(const jsonr *r, uint32_t array, const char *base, file_refs *out)
 {
     uint32_t n = jsonr_size(r, array);
-    if (!n) return -1;
+    if (!n) return SUMMARY_UNREADABLE;
     out->items = calloc(n, sizeof *out->items);
-    if (!out->items) return -1;
+    if (!out->items) return SUMMARY_NO_MEMORY;
     for (uint32_t i = 0; i < n; ++i) {
-        char *path = jsonr_string(r, jsonr_element(r, array, i));
-        if (!path || ref_from_path(base, path, &out->items[out->count])) return -1;
+        const uint32_t element = jsonr_element(r, array, i);
+        if (r->tokens[element].type != JSONR_STRING) return SUMMARY_UNREADABLE;
+        char *path = jsonr_string(r, element);
+        if (!path || ref_from_path(base, path, &out->items[out->count])) return SUMMARY_NO_MEMORY;
         out->count++;
     }
-    return 0;
+    return SUMMARY_OK;
 }
 
 /* Reads a finished job's --json summary into j->now: counts, the files it
- * read and wrote (hashed now) and the key. */
+ * read and wrote (hashed now) and the key. Returns a SUMMARY_* value. */
 static int read_job_summary(const batch *b, job *j)
 {
     jsonr r;
-    if (!j->out.bytes || jsonr_parse(&r, j->out.bytes, j->out.size) != 0) return -1;
+    if (j->out.out_of_memory) return SUMMARY_NO_MEMORY;
+    if (!j->out.bytes) return SUMMARY_UNREADABLE;
+    int rc = jsonr_parse(&r, j->out.bytes, j->out.size);
+    if (rc) return rc == -2 ? SUMMARY_NO_MEMORY : SUMMARY_UNREADABLE;
     record *now = &j->now;
     uint32_t meshes = jsonr_member(&r, 0, "meshes");
     now->meshes = jsonr_size(&r, meshes);
@@ -756,17 +791,17 @@ static int read_job_summary(const batch *b, job *j)
         for (uint32_t k = 0; k < jsonr_size(&r, levels); ++k)
             now->triangles_out += (uint64_t)jsonr_number(&r, jsonr_member(&r, jsonr_element(&r, levels, k), "triangles"), 0);
     }
-    int rc = refs_from_json(&r, jsonr_member(&r, 0, "inputs"), b->source_dir, &now->inputs) ||
-             refs_from_json(&r, jsonr_member(&r, 0, "outputs"), b->output_dir, &now->outputs) ||
-             compute_key(b, j->rel, now);
+    rc = refs_from_json(&r, jsonr_member(&r, 0, "inputs"), b->source_dir, &now->inputs);
+    if (!rc) rc = refs_from_json(&r, jsonr_member(&r, 0, "outputs"), b->output_dir, &now->outputs);
+    if (!rc) rc = compute_key(b, j->rel, now);
     jsonr_free(&r);
     for (size_t i = 0; !rc && i < now->outputs.count; ++i) {
         char *path = resolve_ref(b->output_dir, &now->outputs.items[i]);
-        rc = path ? sha256_file_hex(path, now->outputs.items[i].sha256) : -1;
+        rc = !path ? SUMMARY_NO_MEMORY : hash_result(sha256_file_hex(path, now->outputs.items[i].sha256));
         free(path);
     }
     now->present = !rc;
-    return rc ? -1 : 0;
+    return rc;
 }
 
 /* The job's failure line for the summary: its last stderr line that is not
@@ -802,7 +837,8 @@ static void finish_job(batch *b, job *j, int status)
     char message[700];
     message[0] = 0;
     if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
-        if (read_job_summary(b, j) == 0) {
+        const int summary = read_job_summary(b, j);
+        if (summary == SUMMARY_OK) {
             j->state = JOB_BUILT;
             if (!b->opt->quiet) relay(b, &j->err);
             const file_ref *changed = changed_input(b, j);
@@ -819,8 +855,13 @@ static void finish_job(batch *b, job *j, int status)
             return;
         }
         record_free(&j->now);
-        j->exit_code = LP_IO;
-        lp_line(message, sizeof message, "lodpipe: %s: the job's summary or files could not be read back", j->source);
+        if (summary == SUMMARY_NO_MEMORY) {
+            j->exit_code = LP_INVALID;
+            lp_line(message, sizeof message, "lodpipe: %s: out of memory reading the job's summary back", j->source);
+        } else {
+            j->exit_code = LP_IO;
+            lp_line(message, sizeof message, "lodpipe: %s: the job's summary or files could not be read back", j->source);
+        }
     } else if (WIFEXITED(status)) {
         j->exit_code = WEXITSTATUS(status);
         if (!j->err.size) lp_line(message, sizeof message, "lodpipe: %s: the job failed with exit code %d", j->source, j->exit_code);
@@ -1017,7 +1058,7 @@ static int write_job_config(batch *b, lp_error *err)
     if (config.run.threads == 0) config.run.threads = b->threads_per_job;
     size_t n = config_write(&config, CONFIG_TOML, NULL, 0);
     char *text = malloc(n + 1);
-    if (!text) return lp_fail(err, LP_INVALID, "out of memory");
+    if (!text) return lp_fail(err, LP_INVALID, "%s: out of memory", b->output_dir);
     config_write(&config, CONFIG_TOML, text, n + 1);
     snprintf(b->config_path, sizeof b->config_path, "%s/.lodpipe-batch-XXXXXX.toml", b->output_dir);
     int fd = mkstemps(b->config_path, 5);
@@ -1063,7 +1104,7 @@ static void run_jobs(batch *b)
         for (size_t i = 0; i < b->job_count; ++i)
             if (b->jobs[i].state == JOB_PENDING) {
                 b->jobs[i].state = JOB_FAILED;
-                b->jobs[i].exit_code = LP_IO;
+                b->jobs[i].exit_code = LP_INVALID;
             }
         lp_say("%s: out of memory", b->source_dir);
         return;
@@ -1254,11 +1295,12 @@ static int make_folders(const char *path)
 
 /* 1 when folder (as stat gave it) is an ancestor of path: the job for
  * SRC_DIR/R writes OUT_DIR/R, which for OUT_DIR = SRC_DIR/.. and R = "src/x"
- * is SRC_DIR/src/x, another job's source. */
+ * is SRC_DIR/src/x, another job's source. -1 when memory ran out (the
+ * answer is not known, and a "no" could let an output replace a source). */
 static int folder_contains(const struct stat *folder, const char *path)
 {
     char *real = realpath(path, NULL);
-    if (!real) return 0;
+    if (!real) return errno == ENOMEM ? -1 : 0;
     int found = 0;
     for (char *slash; !found && (slash = strrchr(real, '/')) != NULL;) {
         slash[slash == real] = 0; /* "/a" -> "/", "/a/b" -> "/a" */
@@ -1276,7 +1318,8 @@ static int prepare(batch *b, lp_error *err)
     if (stat(b->source_dir, &src) != 0 || !S_ISDIR(src.st_mode))
         return lp_fail(err, LP_IO, "%s: not a readable folder", b->source_dir);
     if (make_folders(b->output_dir) != 0 || stat(b->output_dir, &b->output_stat) != 0 || !S_ISDIR(b->output_stat.st_mode))
-        return lp_fail(err, LP_IO, "%s: cannot create the output folder (%s)", b->output_dir, strerror(errno));
+        return errno == ENOMEM ? lp_fail(err, LP_INVALID, "%s: out of memory", b->output_dir)
+                               : lp_fail(err, LP_IO, "%s: cannot create the output folder (%s)", b->output_dir, strerror(errno));
     if (src.st_dev == b->output_stat.st_dev && src.st_ino == b->output_stat.st_ino)
         return lp_fail(err, LP_USAGE, "%s: the output folder must differ from the source folder", b->output_dir);
     /* the manifest is written after every job: a path it cannot take (a
@@ -1284,14 +1327,16 @@ static int prepare(batch *b, lp_error *err)
     char *manifest = join_path(b->output_dir, MANIFEST_NAME);
     struct stat st;
     int rc = LP_OK;
-    if (!manifest) rc = lp_fail(err, LP_INVALID, "out of memory");
+    if (!manifest) rc = lp_fail(err, LP_INVALID, "%s: out of memory", b->output_dir);
     else if (lstat(manifest, &st) == 0 && S_ISDIR(st.st_mode))
         rc = lp_fail(err, LP_IO, "%s: cannot write the cache manifest (Is a directory)", manifest);
     else if (access(b->output_dir, W_OK) != 0)
         rc = lp_fail(err, LP_IO, "%s: cannot write the cache manifest (%s)", manifest, strerror(errno));
     free(manifest);
     if (rc) return rc;
-    if (folder_contains(&b->output_stat, b->source_dir))
+    const int inside = folder_contains(&b->output_stat, b->source_dir);
+    if (inside < 0) return lp_fail(err, LP_INVALID, "%s: out of memory", b->output_dir);
+    if (inside)
         return lp_fail(err, LP_USAGE,
                        "%s: the output folder must not contain the source folder (an output could replace a source)",
                        b->output_dir);
@@ -1301,7 +1346,7 @@ static int prepare(batch *b, lp_error *err)
     rc = scan(b, "", 0, err);
     if (rc) return rc;
     if (b->job_count) qsort(b->jobs, b->job_count, sizeof *b->jobs, by_relative_path); /* jobs is NULL when none */
-    if (compute_key_prefix(b)) return lp_fail(err, LP_INVALID, "out of memory");
+    if (compute_key_prefix(b)) return lp_fail(err, LP_INVALID, "%s: out of memory", b->output_dir);
     return LP_OK;
 }
 
@@ -1352,7 +1397,8 @@ int batch_run(const batch_options *options)
     b.source_dir = strip_slashes(options->source_dir);
     b.output_dir = strip_slashes(options->output_dir);
     lp_error err = {0, ""};
-    int rc = b.source_dir && b.output_dir ? prepare(&b, &err) : lp_fail(&err, LP_INVALID, "out of memory");
+    int rc = b.source_dir && b.output_dir ? prepare(&b, &err)
+                                          : lp_fail(&err, LP_INVALID, "%s: out of memory", options->source_dir);
     if (rc) {
         lp_say("%s", err.msg);
         free_batch(&b);
@@ -1383,11 +1429,12 @@ int batch_run(const batch_options *options)
         }
         run_jobs(&b);
         unlink(b.config_path);
-        if (check_written_outputs(&b) != 0) lp_say("%s: out of memory", b.output_dir);
+        /* unchecked outputs are not recorded: the next run builds them again */
+        if (check_written_outputs(&b) != 0) rc = lp_fail(&err, LP_INVALID, "%s: out of memory checking the jobs' outputs", b.output_dir);
     }
     double wall = lp_seconds() - b.start;
     totals t = count_totals(&b);
-    rc = write_manifest(&b, &err);
+    if (!rc) rc = write_manifest(&b, &err);
     if (rc) lp_say("%s", err.msg);
     if (options->json) print_json(&b, &t, wall);
     else print_table(&b, &t, wall);

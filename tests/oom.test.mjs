@@ -115,6 +115,85 @@ const CASES = [
   }, 100, 40],
 ];
 
+/**
+ * `lodpipe batch` with only the batch's own allocations failing (FAIL_MAIN_ONLY: its jobs run without
+ * the library; each job's own out of memory is the main job's, swept above). A batch carries on past a
+ * file that fails, so a run may:
+ *   - exit 0 with exactly the reference run's files (the cache manifest without its times);
+ *   - or exit 2 (the batch itself could not go on) or 5 (a file failed: its line names it), with a line
+ *     saying "out of memory" among lines that each name what they are about, where every file left behind
+ *     is one the reference run wrote, with the same bytes (the manifest, which leaves out a failed file,
+ *     only has to be JSON), and no temp file.
+ * Before, the batch said "the job's summary or files could not be read back" (exit 4 for the file) when
+ * it could not allocate to read a job's summary, "cannot create the output folder (Cannot allocate
+ * memory)" (exit 4), "lodpipe: out of memory" naming nothing, and exited 0 after printing "out of memory"
+ * when it could not check the jobs' outputs for clashes.
+ */
+function sweepBatch(t, bin, runs, asan) {
+  const root = tempDir(t, 'lodpipe-oom-batch-');
+  const src = path.join(root, 'src');
+  fs.mkdirSync(path.join(src, 'sub'), { recursive: true });
+  fs.copyFileSync(DUCK, path.join(src, 'Duck.glb'));
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'sub', 'suzanne.glb'));
+  const env = (extra) => ({
+    LD_PRELOAD: SHIM, FAIL_MAIN_ONLY: '1',
+    ...(asan ? { ASAN_OPTIONS: `${process.env.ASAN_OPTIONS || ''}:verify_asan_link_order=0` } : {}),
+    ...extra,
+  });
+  const args = (out) => ['batch', src, '-o', out, '-j', '1', '--quiet'];
+  const countFile = path.join(root, 'count');
+  const refDir = path.join(root, 'ref');
+  const ref = runLodpipe(args(refDir), { bin, env: env({ FAIL_COUNT_FILE: countFile }) });
+  if (ref.status !== 0 || !fs.existsSync(countFile)) return { problems: [`reference run failed: ${describeRun(ref)}`] };
+  const total = Number(fs.readFileSync(countFile, 'utf8'));
+  const expected = snapshot(refDir);
+  const MANIFEST = '.lodpipe-cache.json';
+  const step = Math.max(1, Math.ceil(total / runs));
+  const tally = { total, step, runs: 0, same: 0, refused: 0, failedFiles: 0 };
+  const problems = [];
+  for (let n = 1; n <= total; n += step) {
+    const dir = path.join(root, `run${n}`);
+    const r = runLodpipe(args(dir), { bin, env: env({ FAIL_AT: String(n) }), timeout: 120000 });
+    tally.runs++;
+    const p = [...runHealthProblems(r)];
+    const got = fs.existsSync(dir) ? snapshot(dir) : {};
+    if (r.status === 0) {
+      tally.same++;
+      p.push(...successStderrProblems(r.stderr));
+      if (JSON.stringify(Object.keys(got)) !== JSON.stringify(Object.keys(expected))) {
+        p.push(`exit 0 with files ${Object.keys(got)} (expected ${Object.keys(expected)})`);
+      } else {
+        for (const f of Object.keys(expected)) if (!got[f].equals(expected[f])) p.push(`exit 0 but ${f} differs`);
+      }
+    } else {
+      tally.refused++;
+      if (r.status === 5) tally.failedFiles++;
+      else if (r.status !== 2) p.push(`exit status ${r.status} (expected 2 or 5: out of memory)`);
+      const lines = r.stderr.split('\n').filter((l) => l && !/warning/.test(l));
+      if (!lines.some((l) => /out of memory/.test(l))) p.push('no line says "out of memory"');
+      for (const l of lines) if (!/^lodpipe: [^:]+: .+$/.test(l)) p.push(`a line names nothing: ${JSON.stringify(l)}`);
+      for (const [f, bytes] of Object.entries(got)) {
+        if (f === MANIFEST) {
+          try { JSON.parse(bytes.toString('utf8')); } catch { p.push('the manifest left behind is not JSON'); }
+        } else if (!expected[f]) p.push(`left behind ${f}, which the reference run did not write`);
+        else if (!bytes.equals(expected[f])) p.push(`left behind ${f} with other bytes than the reference run's`);
+      }
+    }
+    if (p.length) problems.push(`allocation ${n} of ${total}: ${p.join('; ')}\n${describeRun(r)}`);
+    fs.rmSync(dir, { recursive: true, force: true });
+  }
+  return { problems, tally };
+}
+
+for (const [build, bin, runs, asan] of [['optimized build', PLAIN, 200, false], ['ASan build', lodpipeBin, 200, true]]) {
+  test(`out of memory at any allocation of the batch itself (${build})`, { skip }, (t) => {
+    const { problems, tally } = sweepBatch(t, bin, runs, asan);
+    t.diagnostic(JSON.stringify(tally || {}));
+    assert.deepEqual(problems.slice(0, 5), [], `${problems.length} runs went wrong`);
+    assert.ok(tally.refused > 0 && tally.failedFiles > 0, 'no run was refused or failed a file: the failures did not reach the batch');
+  });
+}
+
 for (const [name, args, runsPlain, runsAsan] of CASES) {
   for (const [build, bin, runs, asan] of [['optimized build', PLAIN, runsPlain, false],
     ['ASan build', lodpipeBin, runsAsan, true]]) {

@@ -13,6 +13,8 @@
  *   FAIL_AT=N          allocation N fails (0 or unset: none)
  *   FAIL_LEN=K         ... and the K - 1 after it (default 1)
  *   FAIL_COUNT_FILE=F  writes the number of allocations to F when main returns
+ *   FAIL_MAIN_ONLY=1   the program's children (batch jobs) run without this
+ *                      library: LD_PRELOAD leaves the environment before main
  *
  * Built by `make test` as build/failmalloc.so (tests only; never linked into
  * lodpipe). */
@@ -147,6 +149,8 @@ static int wrapped_main(int argc, char **argv, char **envp)
     const char *at = getenv("FAIL_AT"), *len = getenv("FAIL_LEN");
     fail_first = at ? atol(at) : 0;
     fail_count = len ? atol(len) : 1;
+    const char *main_only = getenv("FAIL_MAIN_ONLY");
+    if (main_only && strcmp(main_only, "1") == 0) unsetenv("LD_PRELOAD");
     atomic_store(&counting, 1);
     const int rc = program_main(argc, argv, envp);
     atomic_store(&counting, 0);
