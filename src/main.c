@@ -25,6 +25,7 @@
 #include "scene.h"
 #include "simplify.h"
 #include "status.h"
+#include "threads.h"
 #include "version.h"
 #include "weld.h"
 
@@ -414,6 +415,109 @@ static int weld_and_simplify(scene *s, uint32_t m, const simplify_options *opt, 
     return rc;
 }
 
+/* Small meshes are welded and simplified ahead of the writer, several at
+ * once, one thread each: a small mesh's simplifier has too little work per
+ * batch to keep two cores busy (its helpers mostly wait to be woken), while
+ * two meshes at once do. A run of consecutive meshes to simplify, each of at
+ * most AHEAD_SMALL triangles and at most AHEAD_TRIANGLES in all (at most
+ * AHEAD_MESHES of them), is done at once on the run's threads; a larger mesh
+ * is done alone, with all of them (so no large mesh runs on one thread while
+ * the others idle). The document is only read meanwhile; the chains are then
+ * written in mesh order, one by one, so the output is the same bytes for any
+ * thread count (the simplifier's result does not depend on its threads).
+ * The bounds keep what is held at once to about one large mesh's worth. */
+#define AHEAD_SMALL 65536
+#define AHEAD_TRIANGLES 262144
+#define AHEAD_MESHES 64
+
+/* One mesh done ahead: its Draco budget (with --draco), weld and ladder. */
+typedef struct mesh_ahead {
+    uint32_t mesh;
+    simplify_options opt;
+    double reserved[SIMPLIFY_MAX_LEVELS]; /* opt.fractions with --draco: eps minus the quantization budget */
+    int bits;                             /* Draco's position bits for it */
+    weld_result w;
+    simplify_result r;
+    int rc, welded;
+    lp_error err;
+} mesh_ahead;
+
+/* Which meshes a command simplifies, in mesh order. */
+typedef int (*mesh_filter)(const scene *s, uint32_t m);
+
+typedef struct ahead_work {
+    scene *s;
+    const cli *c;
+    const dracoout_options *draco; /* NULL: no Draco budget (`simplify`) */
+    mesh_ahead *items;
+} ahead_work;
+
+/* `simplify`: every mesh of the default scene with triangles. */
+static int mesh_in_scene(const scene *s, uint32_t m)
+{
+    return s->meshes[m].instance_count && s->meshes[m].triangle_count;
+}
+
+/* The main job: those that a node without MSFT_lod uses. */
+static int mesh_to_chain(const scene *s, uint32_t m)
+{
+    if (!mesh_in_scene(s, m)) return 0;
+    uint32_t chained, plain;
+    count_mesh_nodes(s, m, &chained, &plain);
+    return plain > 0;
+}
+
+static void ahead_item(void *arg, uint32_t i)
+{
+    const ahead_work *work = arg;
+    mesh_ahead *a = &work->items[i];
+    const scene_mesh *mesh = &work->s->meshes[a->mesh];
+    /* (the items are reused from run to run: nothing of the last may stay) */
+    memset(&a->w, 0, sizeof a->w);
+    memset(&a->r, 0, sizeof a->r);
+    a->err = (lp_error){0, ""};
+    a->rc = LP_OK;
+    a->bits = work->draco ? work->draco->position_bits : 0;
+    double budget = 0;
+    /* Draco: each level is simplified to eps - the quantization budget
+     * (dracoout.h), and records eps itself afterwards */
+    if (work->draco && work->c->config.draco.enabled && mesh->diagonal > 0) {
+        a->rc = dracoout_budget(work->s, a->mesh, work->draco, work->c->levels[0] * mesh->diagonal,
+                                a->opt.full_edge_levels != 0, &a->bits, &budget, &a->err);
+        for (uint32_t k = 0; k < a->opt.level_count; ++k) a->reserved[k] = work->c->levels[k] - budget / mesh->diagonal;
+        a->opt.fractions = a->reserved;
+    }
+    /* it lets the scene's copy of the mesh go; writing the chain reads it again */
+    if (!a->rc) a->rc = weld_and_simplify(work->s, a->mesh, &a->opt, &a->w, &a->r, &a->err);
+    a->welded = !a->rc;
+}
+
+/* Does the meshes `take` picks from mesh `from` on into items: a run of small
+ * ones as above, or one large one; returns their number (0: none left). */
+static uint32_t run_ahead(scene *s, const cli *c, mesh_filter take, const dracoout_options *draco,
+                          const simplify_options *opt, uint32_t from, mesh_ahead *items)
+{
+    const uint32_t threads = lp_threads(opt->threads, LP_TEAM_MAX);
+    uint32_t count = 0;
+    uint64_t triangles = 0;
+    for (uint32_t m = from; m < s->mesh_count && count < AHEAD_MESHES; ++m) {
+        if (!take(s, m)) continue;
+        const uint64_t t = s->meshes[m].triangle_count;
+        /* (count == 1 and triangles > AHEAD_SMALL: the first one is large, and alone) */
+        if (count && (threads == 1 || t > AHEAD_SMALL || (count == 1 && triangles > AHEAD_SMALL) ||
+                      triangles + t > AHEAD_TRIANGLES))
+            break;
+        items[count].mesh = m;
+        items[count].opt = *opt;
+        count++;
+        triangles += t;
+    }
+    for (uint32_t i = 0; count > 1 && i < count; ++i) items[i].opt.threads = 1;
+    ahead_work work = {s, c, draco, items};
+    lp_team_for(count > 1 ? threads : 1, count, ahead_item, &work);
+    return count;
+}
+
 /* Stages `size` bytes for path in the command's output set (output.h). */
 static int stage_bytes(output_set *set, const char *path, const char *bytes, size_t size)
 {
@@ -616,14 +720,26 @@ static int cmd_simplify(const cli *c)
     fprintf(j, ",\"meshes\":[");
     int first = 1;
     char path[4096];
+    mesh_ahead *ahead = calloc(AHEAD_MESHES, sizeof *ahead);
+    uint32_t ahead_count = 0, ahead_next = 0;
+    if (!ahead) {
+        lp_error e = {0, ""};
+        lp_fail(&e, LP_INVALID, "out of memory");
+        rc = report(in, &e);
+    }
     for (uint32_t m = 0; m < s.mesh_count && !rc; ++m) {
         const scene_mesh *mesh = &s.meshes[m];
-        if (!mesh->instance_count || !mesh->triangle_count) continue;
-        weld_result w;
-        simplify_result r;
-        lp_error err = {0, ""};
-        if ((rc = weld_and_simplify(&s, m, &opt, &w, &r, &err)) != 0) {
-            report(in, &err);
+        if (!mesh_in_scene(&s, m)) continue;
+        if (ahead_next == ahead_count) {
+            ahead_count = run_ahead(&s, c, mesh_in_scene, NULL, &opt, m, ahead);
+            ahead_next = 0;
+        }
+        mesh_ahead *a = &ahead[ahead_next++];
+        weld_result w = a->w;
+        simplify_result r = a->r;
+        a->welded = 0; /* w and r are this iteration's now */
+        if ((rc = a->rc) != 0) {
+            report(in, &a->err);
             break;
         }
         {
@@ -669,6 +785,12 @@ static int cmd_simplify(const cli *c)
         simplify_result_free(&r);
         weld_free(&w);
     }
+    for (uint32_t i = ahead_next; i < ahead_count; ++i) /* done ahead of a mesh that failed */
+        if (ahead[i].welded) {
+            weld_free(&ahead[i].w);
+            simplify_result_free(&ahead[i].r);
+        }
+    free(ahead);
     fprintf(j, "]}\n");
     if (memstream_close(j, &json) && !rc) {
         lp_error e = {0, ""};
@@ -790,8 +912,12 @@ static int cmd_lod(const cli *c)
     const dracoout_options draco_opt = draco_options_of(c);
     draco_job *draco_jobs = calloc((size_t)s.mesh_count + 1, sizeof *draco_jobs);
     uint32_t draco_job_count = 0;
-    if (!draco_jobs) {
+    mesh_ahead *ahead = calloc(AHEAD_MESHES, sizeof *ahead);
+    uint32_t ahead_count = 0, ahead_next = 0;
+    if (!draco_jobs || !ahead) {
         lp_say("%s: out of memory", in);
+        free(draco_jobs);
+        free(ahead);
         scene_free(&s);
         return LP_INVALID;
     }
@@ -810,34 +936,32 @@ static int cmd_lod(const cli *c)
     for (uint32_t m = 0; m < s.mesh_count && !rc; ++m) {
         const scene_mesh *mesh = &s.meshes[m];
         if (!mesh->instance_count || !mesh->triangle_count) continue;
-        uint32_t chained, plain;
-        count_mesh_nodes(&s, m, &chained, &plain);
-        if (!plain) {
+        if (!mesh_to_chain(&s, m)) {
             if (!c->quiet)
                 lp_say("%s: warning: meshes[%u]: every node that uses it already has MSFT_lod; left as it is%s", in, m,
                        draco ? ", uncompressed (--draco compresses the chains it makes)" : "");
             continue;
         }
-        weld_result w;
-        simplify_result r;
+        if (ahead_next == ahead_count) {
+            ahead_count = run_ahead(&s, c, mesh_to_chain, &draco_opt, &opt, m, ahead);
+            ahead_next = 0;
+        }
+        mesh_ahead *a = &ahead[ahead_next++];
+        if (a->mesh != m) { /* run_ahead takes the meshes this loop takes, in its order */
+            ahead_next--; /* freed below */
+            rc = lp_fail(&err, LP_PROMISE, "meshes[%u]: simplified ahead as meshes[%u] (a bug)", m, a->mesh);
+            break;
+        }
+        weld_result w = a->w;
+        simplify_result r = a->r;
         lodchain_summary sum;
         memset(&sum, 0, sizeof sum);
-        memset(&r, 0, sizeof r);
         dracoout_plan plan;
-        /* Draco: each level is simplified to eps - the quantization budget
-         * (dracoout.h), and records eps itself afterwards */
-        int bits = draco_opt.position_bits;
-        double budget = 0, reserved[SIMPLIFY_MAX_LEVELS];
-        simplify_options mesh_opt = opt;
-        if (draco && mesh->diagonal > 0) {
-            rc = dracoout_budget(&s, m, &draco_opt, c->levels[0] * mesh->diagonal, mesh_opt.full_edge_levels != 0, &bits,
-                                 &budget, &err);
-            for (uint32_t k = 0; k < opt.level_count; ++k) reserved[k] = c->levels[k] - budget / mesh->diagonal;
-            mesh_opt.fractions = reserved;
-        }
-        /* it lets the scene's copy of the mesh go; writing the chain reads it again */
-        if (!rc) rc = weld_and_simplify(&s, m, &mesh_opt, &w, &r, &err);
-        const int welded = !rc;
+        const int bits = a->bits;
+        const int welded = a->welded;
+        a->welded = 0; /* w and r are this iteration's now */
+        rc = a->rc;
+        if (rc) err = a->err;
         if (!rc) rc = scene_reload_mesh_data(&s, m, &err);
         if (welded && w.dangling_count && !c->quiet) warn_dangling(in, m, w.dangling_count);
         for (uint32_t k = 0; welded && draco && k < r.level_count; ++k) r.levels[k].eps = c->levels[k] * r.diagonal;
@@ -909,6 +1033,12 @@ static int cmd_lod(const cli *c)
         simplify_result_free(&r);
     }
     jsonw_raw(&j, "]");
+    for (uint32_t i = ahead_next; i < ahead_count; ++i) /* done ahead of a mesh that failed */
+        if (ahead[i].welded) {
+            weld_free(&ahead[i].w);
+            simplify_result_free(&ahead[i].r);
+        }
+    free(ahead);
     if (!rc && draco) rc = draco_encode_all(&s, draco_jobs, draco_job_count, &draco_opt, &err);
     free(draco_jobs);
     /* an edit of the document that ran out of memory may show up as another
