@@ -494,8 +494,11 @@ static int encode_checked(const packed_primitive *pp, const dracoout_options *o,
     char why[256] = "";
     for (int attempt = 0; attempt < 2; ++attempt) {
         draco_encode_options eo = {o->speed, sequential, 1};
-        if (draco_encode_mesh(pp->point_count, pp->faces, pp->face_count, pp->attributes, pp->attribute_count, &eo,
-                              stream, size, ids, why, sizeof why) != 0) {
+        const int encoded = draco_encode_mesh(pp->point_count, pp->faces, pp->face_count, pp->attributes,
+                                              pp->attribute_count, &eo, stream, size, ids, why, sizeof why);
+        /* (not a refusal: sequential would make other bytes of the same input) */
+        if (encoded == DRACO_OUT_OF_MEMORY) return lp_fail(err, LP_INVALID, "%s", why);
+        if (encoded != 0) {
             /* edgebreaker refuses a primitive whose every face has a repeated
              * point ("All triangles are degenerate."), e.g. one made only of
              * zero-area triangles off the surface; sequential keeps them */
@@ -503,8 +506,10 @@ static int encode_checked(const packed_primitive *pp, const dracoout_options *o,
             sequential = 1;
             continue;
         }
-        if (draco_decode_mesh(*stream, *size, decoded, why, sizeof why) != 0) {
+        const int decoded_rc = draco_decode_mesh(*stream, *size, decoded, why, sizeof why);
+        if (decoded_rc != 0) {
             free(*stream);
+            if (decoded_rc == DRACO_OUT_OF_MEMORY) return lp_fail(err, LP_INVALID, "%s", why);
             return lp_fail(err, LP_PROMISE, "Draco: our own stream does not decode: %s", why);
         }
         if (draco_mesh_num_faces(*decoded) == pp->face_count) break;

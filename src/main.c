@@ -256,7 +256,7 @@ static int depfile_usable(const cli *c, const gltf_doc *doc)
     return LP_OK;
 }
 
-/* Appends `,"outputs":[paths]`: the files output_write_all wrote for `out`
+/* Appends `,"outputs":[paths]`: the files output_write_all writes for `out`
  * (the main file first, the others in its folder). */
 static void json_written_files(jsonw *j, const char *out, const gltf_out_file *files, size_t count)
 {
@@ -268,20 +268,33 @@ static void json_written_files(jsonw *j, const char *out, const gltf_out_file *f
         if (slash) jsonw_printf(&path, "%.*s/", (int)(slash - out), out);
         jsonw_raw(&path, files[i].name);
         jsonw_raw(j, ",");
-        jsonw_string(j, path.failed ? "" : path.text);
+        if (path.failed) j->failed = 1; /* a name left out would be a wrong report */
+        else jsonw_string(j, path.text);
         jsonw_free(&path);
     }
     jsonw_raw(j, "]");
 }
 
+/* The --json report's end: the outputs and the closing brace. Nonzero when
+ * the report ran out of memory, here or before. */
+static int finish_json_report(jsonw *j, const char *out, const gltf_out_file *files, size_t count)
+{
+    json_written_files(j, out, files, count);
+    jsonw_raw(j, "}\n");
+    return j->failed;
+}
+
 /* Serializes the document and writes every file all-or-nothing, with the
- * --depfile's text when `depfile` is not NULL; on success the paths written
- * are appended to `written` (when not NULL). No file the input `in` reads is
+ * --depfile's text when `depfile` is not NULL. When `report` is not NULL (the
+ * --json report, all but its outputs), the paths to be written and the
+ * report's end are appended to it first: a report that runs out of memory
+ * fails the run before any file is written, never after (exit 0 with a
+ * wrong or empty report). No file the input `in` reads is
  * replaced (its .bin by a .gltf output's, say), unless --force names the
  * input itself as OUT (the whole input is replaced then), nor the --depfile
  * (in = NULL: no such guards). */
 static int write_document(const cli *c, const char *in, const gltf_doc *doc, const char *out, const char *depfile,
-                          jsonw *written)
+                          jsonw *json_report)
 {
     gltf_out_file *files = NULL;
     size_t count = 0;
@@ -306,10 +319,11 @@ static int write_document(const cli *c, const char *in, const gltf_doc *doc, con
     if (rc) {
         lp_fail(&err, rc, "%s", msg);
         rc = report(out, &err);
+    } else if (json_report && finish_json_report(json_report, out, files, count) != 0) {
+        lp_fail(&err, LP_INVALID, "out of memory for the --json report");
+        rc = report(out, &err);
     } else if ((rc = output_write_all(out, files, count, &also, depfile ? 1 : 0, guards, guard_count, &err)) != 0) {
         rc = report(out, &err);
-    } else if (written) {
-        json_written_files(written, out, files, count);
     }
     gltf_free_files(files, count);
     free(files);
@@ -1054,11 +1068,10 @@ static int cmd_lod(const cli *c)
     json_inputs(&j, in, s.doc);
     char *depfile = NULL;
     if (c->depfile) rc = depfile_of(c, in, out, s.doc, &depfile);
-    if (!rc) rc = write_document(c, in, s.doc, out, depfile, &j);
+    if (!rc) rc = write_document(c, in, s.doc, out, depfile, c->json ? &j : NULL);
     free(depfile);
     if (!rc && simplified && !kept_any && !c->quiet) say_no_level_kept(in, simplified, flat, chain.min_reduction);
-    jsonw_raw(&j, "}\n");
-    if (!rc && c->json) fputs(j.failed ? "{}\n" : j.text, stdout);
+    if (!rc && c->json) fputs(j.text, stdout); /* complete: write_document checked it before writing */
     jsonw_free(&j);
     scene_free(&s);
     return rc;

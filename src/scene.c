@@ -124,6 +124,7 @@ int scene_mesh_stretch(const scene *s, uint32_t node, double *stretch, lp_error 
     const int parsed = joints ? jsonr_parse(&r, joints, strlen(joints)) : -1;
     /* for want of memory the stretch would come out smaller, not fail */
     if (parsed == -2 || gltf_out_of_memory(s->doc) || strstr(unread.msg, "out of memory")) {
+        if (parsed == 0) jsonr_free(&r);
         free(joints);
         free(ibm);
         return lp_fail(err, LP_INVALID, "nodes[%u]: out of memory reading skins[%lld]", node, (long long)skin);

@@ -41,9 +41,26 @@ function snapshot(dir) {
 }
 
 /**
- * Runs `args` (OUTDIR standing for a fresh empty folder) once to count its allocations, then about
- * `runs` times, failing allocation 1, 1 + step, ... (step = count / runs, rounded up). Returns the
- * problems found and a tally of the outcomes.
+ * The allocations to fail: 1, 1 + step, ..., and every one of the first and the last PROBE_ENDS. The
+ * ends are where reading the input and writing the output allocate; a stride alone moves whenever a
+ * change adds or removes an allocation, and did hide two defects there until one did (a missing external
+ * .bin for a failed fopen in tinygltf's file test; a --json report that left out an output's name).
+ */
+const PROBE_ENDS = 16;
+function probes(total, step) {
+  const set = new Set();
+  for (let n = 1; n <= total; n += step) set.add(n);
+  for (let k = 0; k < PROBE_ENDS; ++k) {
+    if (1 + k <= total) set.add(1 + k);
+    if (total - k >= 1) set.add(total - k);
+  }
+  return [...set].sort((a, b) => a - b);
+}
+
+/**
+ * Runs `args` (OUTDIR standing for a fresh empty folder) once to count its allocations, then fails
+ * each allocation probes() picks (step = count / runs, rounded up). Returns the problems found and a
+ * tally of the outcomes.
  */
 function sweep(t, bin, args, runs, asan) {
   const env = (extra) => ({
@@ -67,7 +84,7 @@ function sweep(t, bin, args, runs, asan) {
   const refStdout = stdoutOf(ref, refDir);
   const step = Math.max(1, Math.ceil(total / runs));
   const tally = { total, step, runs: 0, same: 0, refused: 0 };
-  for (let n = 1; n <= total; n += step) {
+  for (const n of probes(total, step)) {
     const dir = path.join(root, `run${n}`);
     fs.mkdirSync(dir);
     const r = runLodpipe(withDir(dir), { bin, env: env({ FAIL_AT: String(n) }), timeout: 60000 });

@@ -1,6 +1,8 @@
 // draco_codec.cpp - the C bridge over Draco; see draco_codec.h.
 #include "draco_codec.h"
 
+#include <new>
+
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -45,8 +47,11 @@ extern "C" int draco_decode_mesh(const void *data, size_t size, draco_mesh **out
         m->mesh = std::move(result).value();
         *out = m;
         return 0;
+    } catch (const std::bad_alloc &) {
+        set_err(err, errlen, "out of memory decoding Draco");
+        return DRACO_OUT_OF_MEMORY;
     } catch (...) {
-        set_err(err, errlen, "Draco decoder failed (out of memory?)");
+        set_err(err, errlen, "Draco decoder failed");
         return -1;
     }
 }
@@ -215,15 +220,18 @@ extern "C" int draco_encode_mesh(uint32_t point_count, const uint32_t *indices, 
         }
         *out = static_cast<uint8_t *>(malloc(buffer.size() ? buffer.size() : 1));
         if (!*out) {
-            set_err(err, errlen, "out of memory");
-            return -1;
+            set_err(err, errlen, "out of memory encoding Draco");
+            return DRACO_OUT_OF_MEMORY;
         }
         memcpy(*out, buffer.data(), buffer.size());
         *out_size = buffer.size();
         for (size_t a = 0; a < attribute_count; ++a) unique_ids[a] = mesh.attribute(ids[a])->unique_id();
         return 0;
+    } catch (const std::bad_alloc &) {
+        set_err(err, errlen, "out of memory encoding Draco");
+        return DRACO_OUT_OF_MEMORY;
     } catch (...) {
-        set_err(err, errlen, "Draco encoder failed (out of memory?)");
+        set_err(err, errlen, "Draco encoder failed");
         return -1;
     }
 }

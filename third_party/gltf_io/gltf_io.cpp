@@ -1102,8 +1102,20 @@ bool read_external_file(std::vector<unsigned char> *out, std::string *err, const
     return false;
 }
 
+// tinygltf's test whether a referenced file is there, without allocating:
+// its own opens a FILE (malloc), and a failed allocation came out as "File
+// not found" (exit 4) instead of out of memory. Like its fopen "rb", a path
+// that can be opened for reading is there.
+bool external_file_exists(const std::string &path, void *)
+{
+    const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return false;
+    close(fd);
+    return true;
+}
+
 // tinygltf's file system, with read_external_file as its reader.
-const tinygltf::FsCallbacks kFileSystem = {&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_external_file,
+const tinygltf::FsCallbacks kFileSystem = {&external_file_exists, &tinygltf::ExpandFilePath, &read_external_file,
                                            &tinygltf::WriteWholeFile, nullptr};
 
 void load_with_tinygltf(gltf_doc *doc, const ojson &root, bool glb, const uint8_t *bin, size_t bin_size)
@@ -1350,8 +1362,9 @@ void decode_draco_primitive(gltf_doc *doc, ojson &prim, const std::string &path)
     const size_t accessor_count = accessors ? accessors->size() : 0;
     char why[256] = "";
     draco_mesh *mesh = nullptr;
-    if (draco_decode_mesh(doc->views[v].ptr, doc->views[v].size, &mesh, why, sizeof why) != 0)
-        fail(GLTF_INVALID, path + ": " + why);
+    const int decoded = draco_decode_mesh(doc->views[v].ptr, doc->views[v].size, &mesh, why, sizeof why);
+    if (decoded == DRACO_OUT_OF_MEMORY) throw std::bad_alloc();
+    if (decoded != 0) fail(GLTF_INVALID, path + ": " + why);
     std::unique_ptr<draco_mesh, void (*)(draco_mesh *)> hold(mesh, draco_mesh_free);
     const uint64_t points = draco_mesh_num_points(mesh), faces = draco_mesh_num_faces(mesh);
 
