@@ -479,17 +479,17 @@ static int compute_key_prefix(batch *b)
 /* Reading back what a job read and wrote: the failures are told apart, so
  * that the batch running out of memory says so (exit 2) instead of blaming
  * the job. */
-enum { SUMMARY_OK = 0, SUMMARY_UNREADABLE = -1, SUMMARY_NO_MEMORY = -2 };
+enum { READBACK_OK = 0, READBACK_UNREADABLE = -1, READBACK_NO_MEMORY = -2 };
 
-/* sha256_file_hex's result as a SUMMARY_* value (fopen allocates). */
+/* sha256_file_hex's result as a READBACK_* value (fopen allocates). */
 static int hash_result(int rc)
 {
-    return !rc ? SUMMARY_OK : errno == ENOMEM ? SUMMARY_NO_MEMORY : SUMMARY_UNREADABLE;
+    return !rc ? READBACK_OK : errno == ENOMEM ? READBACK_NO_MEMORY : READBACK_UNREADABLE;
 }
 
 /* Hashes every input of r as it is now (refreshing r's hashes) and derives
- * the key. Returns SUMMARY_OK, SUMMARY_UNREADABLE when an input cannot be
- * read, or SUMMARY_NO_MEMORY. */
+ * the key. Returns READBACK_OK, READBACK_UNREADABLE when an input cannot be
+ * read, or READBACK_NO_MEMORY. */
 static int compute_key(const batch *b, const char *rel, record *r)
 {
     sha256_ctx ctx;
@@ -500,7 +500,7 @@ static int compute_key(const batch *b, const char *rel, record *r)
     for (size_t i = 0; i < r->inputs.count; ++i) {
         file_ref *f = &r->inputs.items[i];
         char *path = resolve_ref(b->source_dir, f);
-        int rc = !path ? SUMMARY_NO_MEMORY : hash_result(sha256_file_hex(path, f->sha256));
+        int rc = !path ? READBACK_NO_MEMORY : hash_result(sha256_file_hex(path, f->sha256));
         free(path);
         if (rc) return rc;
         sha256_update(&ctx, f->as_opened ? "opened " : "input ", f->as_opened ? 7 : 6);
@@ -759,28 +759,28 @@ static int ref_from_path(const char *base, char *path, file_ref *f)
 static int refs_from_json(const jsonr *r, uint32_t array, const char *base, file_refs *out)
 {
     uint32_t n = jsonr_size(r, array);
-    if (!n) return SUMMARY_UNREADABLE;
+    if (!n) return READBACK_UNREADABLE;
     out->items = calloc(n, sizeof *out->items);
-    if (!out->items) return SUMMARY_NO_MEMORY;
+    if (!out->items) return READBACK_NO_MEMORY;
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t element = jsonr_element(r, array, i);
-        if (r->tokens[element].type != JSONR_STRING) return SUMMARY_UNREADABLE;
+        if (r->tokens[element].type != JSONR_STRING) return READBACK_UNREADABLE;
         char *path = jsonr_string(r, element);
-        if (!path || ref_from_path(base, path, &out->items[out->count])) return SUMMARY_NO_MEMORY;
+        if (!path || ref_from_path(base, path, &out->items[out->count])) return READBACK_NO_MEMORY;
         out->count++;
     }
-    return SUMMARY_OK;
+    return READBACK_OK;
 }
 
 /* Reads a finished job's --json summary into j->now: counts, the files it
- * read and wrote (hashed now) and the key. Returns a SUMMARY_* value. */
+ * read and wrote (hashed now) and the key. Returns a READBACK_* value. */
 static int read_job_summary(const batch *b, job *j)
 {
     jsonr r;
-    if (j->out.out_of_memory) return SUMMARY_NO_MEMORY;
-    if (!j->out.bytes) return SUMMARY_UNREADABLE;
+    if (j->out.out_of_memory) return READBACK_NO_MEMORY;
+    if (!j->out.bytes) return READBACK_UNREADABLE;
     int rc = jsonr_parse(&r, j->out.bytes, j->out.size);
-    if (rc) return rc == -2 ? SUMMARY_NO_MEMORY : SUMMARY_UNREADABLE;
+    if (rc) return rc == -2 ? READBACK_NO_MEMORY : READBACK_UNREADABLE;
     record *now = &j->now;
     uint32_t meshes = jsonr_member(&r, 0, "meshes");
     now->meshes = jsonr_size(&r, meshes);
@@ -797,7 +797,7 @@ static int read_job_summary(const batch *b, job *j)
     jsonr_free(&r);
     for (size_t i = 0; !rc && i < now->outputs.count; ++i) {
         char *path = resolve_ref(b->output_dir, &now->outputs.items[i]);
-        rc = !path ? SUMMARY_NO_MEMORY : hash_result(sha256_file_hex(path, now->outputs.items[i].sha256));
+        rc = !path ? READBACK_NO_MEMORY : hash_result(sha256_file_hex(path, now->outputs.items[i].sha256));
         free(path);
     }
     now->present = !rc;
@@ -838,7 +838,7 @@ static void finish_job(batch *b, job *j, int status)
     message[0] = 0;
     if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
         const int summary = read_job_summary(b, j);
-        if (summary == SUMMARY_OK) {
+        if (summary == READBACK_OK) {
             j->state = JOB_BUILT;
             if (!b->opt->quiet) relay(b, &j->err);
             const file_ref *changed = changed_input(b, j);
@@ -855,7 +855,7 @@ static void finish_job(batch *b, job *j, int status)
             return;
         }
         record_free(&j->now);
-        if (summary == SUMMARY_NO_MEMORY) {
+        if (summary == READBACK_NO_MEMORY) {
             j->exit_code = LP_INVALID;
             lp_line(message, sizeof message, "lodpipe: %s: out of memory reading the job's summary back", j->source);
         } else {

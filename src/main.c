@@ -285,7 +285,7 @@ static int finish_json_report(jsonw *j, const char *out, const gltf_out_file *fi
 }
 
 /* Serializes the document and writes every file all-or-nothing, with the
- * --depfile's text when `depfile` is not NULL. When `report` is not NULL (the
+ * --depfile's text when `depfile` is not NULL. When `json_report` is not NULL (the
  * --json report, all but its outputs), the paths to be written and the
  * report's end are appended to it first: a report that runs out of memory
  * fails the run before any file is written, never after (exit 0 with a
@@ -339,14 +339,12 @@ static dracoout_options draco_options_of(const cli *c)
     return o;
 }
 
-/* How many nodes use mesh m with an MSFT_lod chain, and how many without:
- * lodchain_write leaves a node that has one as it is, so a mesh with no plain
- * node (a file lodpipe already wrote) would only gain unused level meshes. */
-static void count_mesh_nodes(const scene *s, uint32_t m, uint32_t *chained, uint32_t *plain)
+/* Does a node that uses mesh m carry an MSFT_lod chain? */
+static int mesh_has_chain(const scene *s, uint32_t m)
 {
-    *chained = *plain = 0;
     for (uint32_t n = 0; n < s->node_count; ++n)
-        if (s->nodes[n].mesh == (int64_t)m) ++*(s->nodes[n].lod_count ? chained : plain);
+        if (s->nodes[n].mesh == (int64_t)m && s->nodes[n].lod_count) return 1;
+    return 0;
 }
 
 /* convert --draco: every mesh of the default scene compressed as it is. A
@@ -361,9 +359,7 @@ static int draco_lod0_only(const cli *c, const char *in, scene *s)
     int rc = LP_OK;
     for (uint32_t m = 0; m < s->mesh_count && !rc; ++m) {
         if (!s->meshes[m].instance_count || !s->meshes[m].triangle_count) continue;
-        uint32_t chained, plain;
-        count_mesh_nodes(s, m, &chained, &plain);
-        if (chained) {
+        if (mesh_has_chain(s, m)) {
             if (!c->quiet)
                 lp_say("%s: warning: meshes[%u] has LOD chains; left uncompressed (their recorded errors are for its "
                        "present geometry: compress with the main job's --draco from the original)",
@@ -456,80 +452,121 @@ typedef struct mesh_ahead {
     lp_error err;
 } mesh_ahead;
 
-/* Which meshes a command simplifies, in mesh order. */
-typedef int (*mesh_filter)(const scene *s, uint32_t m);
+/* The meshes a command simplifies, one flag per mesh: `simplify` takes every
+ * mesh of the default scene with triangles; the main job only those that a
+ * node without MSFT_lod uses (lodchain_write leaves a node that has one as it
+ * is, so a mesh with no such node would only gain unused level meshes).
+ * NULL when out of memory. */
+static uint8_t *meshes_to_simplify(const scene *s, int main_job)
+{
+    uint8_t *take = calloc((size_t)s->mesh_count + 1, 1);
+    if (!take) return NULL;
+    for (uint32_t n = 0; main_job && n < s->node_count; ++n)
+        if (s->nodes[n].mesh >= 0 && s->nodes[n].mesh < (int64_t)s->mesh_count && !s->nodes[n].lod_count)
+            take[s->nodes[n].mesh] = 1;
+    for (uint32_t m = 0; m < s->mesh_count; ++m)
+        take[m] = s->meshes[m].instance_count && s->meshes[m].triangle_count && (!main_job || take[m]);
+    return take;
+}
 
-typedef struct ahead_work {
+/* The meshes done ahead of the command's loop, which takes them in mesh
+ * order: items[next, count) are done and not yet taken. */
+typedef struct ahead_queue {
     scene *s;
     const cli *c;
     const dracoout_options *draco; /* NULL: no Draco budget (`simplify`) */
-    mesh_ahead *items;
-} ahead_work;
-
-/* `simplify`: every mesh of the default scene with triangles. */
-static int mesh_in_scene(const scene *s, uint32_t m)
-{
-    return s->meshes[m].instance_count && s->meshes[m].triangle_count;
-}
-
-/* The main job: those that a node without MSFT_lod uses. */
-static int mesh_to_chain(const scene *s, uint32_t m)
-{
-    if (!mesh_in_scene(s, m)) return 0;
-    uint32_t chained, plain;
-    count_mesh_nodes(s, m, &chained, &plain);
-    return plain > 0;
-}
+    const simplify_options *opt;
+    uint8_t *take;                 /* meshes_to_simplify */
+    mesh_ahead *items;             /* AHEAD_MESHES */
+    uint32_t count, next;
+} ahead_queue;
 
 static void ahead_item(void *arg, uint32_t i)
 {
-    const ahead_work *work = arg;
-    mesh_ahead *a = &work->items[i];
-    const scene_mesh *mesh = &work->s->meshes[a->mesh];
+    const ahead_queue *q = arg;
+    mesh_ahead *a = &q->items[i];
+    const scene_mesh *mesh = &q->s->meshes[a->mesh];
     /* (the items are reused from run to run: nothing of the last may stay) */
     memset(&a->w, 0, sizeof a->w);
     memset(&a->r, 0, sizeof a->r);
     a->err = (lp_error){0, ""};
     a->rc = LP_OK;
-    a->bits = work->draco ? work->draco->position_bits : 0;
+    a->bits = q->draco ? q->draco->position_bits : 0;
     double budget = 0;
     /* Draco: each level is simplified to eps - the quantization budget
      * (dracoout.h), and records eps itself afterwards */
-    if (work->draco && work->c->config.draco.enabled && mesh->diagonal > 0) {
-        a->rc = dracoout_budget(work->s, a->mesh, work->draco, work->c->levels[0] * mesh->diagonal,
+    if (q->draco && q->c->config.draco.enabled && mesh->diagonal > 0) {
+        a->rc = dracoout_budget(q->s, a->mesh, q->draco, q->c->levels[0] * mesh->diagonal,
                                 a->opt.full_edge_levels != 0, &a->bits, &budget, &a->err);
-        for (uint32_t k = 0; k < a->opt.level_count; ++k) a->reserved[k] = work->c->levels[k] - budget / mesh->diagonal;
+        for (uint32_t k = 0; k < a->opt.level_count; ++k) a->reserved[k] = q->c->levels[k] - budget / mesh->diagonal;
         a->opt.fractions = a->reserved;
     }
     /* it lets the scene's copy of the mesh go; writing the chain reads it again */
-    if (!a->rc) a->rc = weld_and_simplify(work->s, a->mesh, &a->opt, &a->w, &a->r, &a->err);
+    if (!a->rc) a->rc = weld_and_simplify(q->s, a->mesh, &a->opt, &a->w, &a->r, &a->err);
     a->welded = !a->rc;
 }
 
-/* Does the meshes `take` picks from mesh `from` on into items: a run of small
- * ones as above, or one large one; returns their number (0: none left). */
-static uint32_t run_ahead(scene *s, const cli *c, mesh_filter take, const dracoout_options *draco,
-                          const simplify_options *opt, uint32_t from, mesh_ahead *items)
+/* Does the meshes to simplify from mesh `from` on into the queue's items: a
+ * run of small ones as above, or one large one (none: none is left). */
+static void run_ahead(ahead_queue *q, uint32_t from)
 {
-    const uint32_t threads = lp_threads(opt->threads, LP_TEAM_MAX);
+    const uint32_t threads = lp_threads(q->opt->threads, LP_TEAM_MAX);
     uint32_t count = 0;
     uint64_t triangles = 0;
-    for (uint32_t m = from; m < s->mesh_count && count < AHEAD_MESHES; ++m) {
-        if (!take(s, m)) continue;
-        const uint64_t t = s->meshes[m].triangle_count;
+    for (uint32_t m = from; m < q->s->mesh_count && count < AHEAD_MESHES; ++m) {
+        if (!q->take[m]) continue;
+        const uint64_t t = q->s->meshes[m].triangle_count;
         /* (count == 1 and triangles > AHEAD_SMALL: the first one is large, and alone) */
         if (count && (threads == 1 || t > AHEAD_SMALL || (count == 1 && triangles > AHEAD_SMALL) ||
                       triangles + t > AHEAD_TRIANGLES))
             break;
-        items[count].mesh = m;
-        items[count].opt = *opt;
+        q->items[count].mesh = m;
+        q->items[count].opt = *q->opt;
         count++;
         triangles += t;
     }
-    for (uint32_t i = 0; count > 1 && i < count; ++i) items[i].opt.threads = 1;
-    ahead_work work = {s, c, draco, items};
-    lp_team_for(count > 1 ? threads : 1, count, ahead_item, &work);
-    return count;
+    for (uint32_t i = 0; count > 1 && i < count; ++i) q->items[i].opt.threads = 1;
+    lp_team_for(count > 1 ? threads : 1, count, ahead_item, q);
+    q->count = count;
+    q->next = 0;
+}
+
+/* Sets up the queue of a command (main_job: cmd_lod's meshes, else
+ * `simplify`'s); nonzero when out of memory, with nothing to free. */
+static int ahead_begin(ahead_queue *q, scene *s, const cli *c, const dracoout_options *draco,
+                       const simplify_options *opt, int main_job)
+{
+    *q = (ahead_queue){s, c, draco, opt, meshes_to_simplify(s, main_job), calloc(AHEAD_MESHES, sizeof *q->items), 0, 0};
+    if (q->take && q->items) return 0;
+    free(q->take);
+    free(q->items);
+    q->take = NULL;
+    q->items = NULL;
+    return -1;
+}
+
+/* Mesh m done, the caller's from now on (its weld and result, when welded):
+ * the next one in the queue, which is refilled when empty. NULL when m is not
+ * the next mesh to simplify (a bug: the loop takes the meshes the queue does,
+ * in its order). */
+static mesh_ahead *ahead_take(ahead_queue *q, uint32_t m)
+{
+    if (q->next == q->count) run_ahead(q, m);
+    if (q->next == q->count || q->items[q->next].mesh != m) return NULL;
+    return &q->items[q->next++];
+}
+
+/* Frees the meshes done ahead and not taken (those after a mesh that
+ * failed) and the queue. */
+static void ahead_end(ahead_queue *q)
+{
+    for (uint32_t i = q->next; i < q->count; ++i)
+        if (q->items[i].welded) {
+            weld_free(&q->items[i].w);
+            simplify_result_free(&q->items[i].r);
+        }
+    free(q->items);
+    free(q->take);
 }
 
 /* Stages `size` bytes for path in the command's output set (output.h). */
@@ -734,21 +771,22 @@ static int cmd_simplify(const cli *c)
     fprintf(j, ",\"meshes\":[");
     int first = 1;
     char path[4096];
-    mesh_ahead *ahead = calloc(AHEAD_MESHES, sizeof *ahead);
-    uint32_t ahead_count = 0, ahead_next = 0;
-    if (!ahead) {
+    ahead_queue ahead;
+    if (ahead_begin(&ahead, &s, c, NULL, &opt, 0)) {
         lp_error e = {0, ""};
         lp_fail(&e, LP_INVALID, "out of memory");
         rc = report(in, &e);
     }
     for (uint32_t m = 0; m < s.mesh_count && !rc; ++m) {
         const scene_mesh *mesh = &s.meshes[m];
-        if (!mesh_in_scene(&s, m)) continue;
-        if (ahead_next == ahead_count) {
-            ahead_count = run_ahead(&s, c, mesh_in_scene, NULL, &opt, m, ahead);
-            ahead_next = 0;
+        if (!ahead.take[m]) continue;
+        mesh_ahead *a = ahead_take(&ahead, m);
+        if (!a) {
+            lp_error e = {0, ""};
+            lp_fail(&e, LP_PROMISE, "meshes[%u]: not simplified ahead (a bug)", m);
+            rc = report(in, &e);
+            break;
         }
-        mesh_ahead *a = &ahead[ahead_next++];
         weld_result w = a->w;
         simplify_result r = a->r;
         a->welded = 0; /* w and r are this iteration's now */
@@ -799,12 +837,7 @@ static int cmd_simplify(const cli *c)
         simplify_result_free(&r);
         weld_free(&w);
     }
-    for (uint32_t i = ahead_next; i < ahead_count; ++i) /* done ahead of a mesh that failed */
-        if (ahead[i].welded) {
-            weld_free(&ahead[i].w);
-            simplify_result_free(&ahead[i].r);
-        }
-    free(ahead);
+    ahead_end(&ahead);
     fprintf(j, "]}\n");
     if (memstream_close(j, &json) && !rc) {
         lp_error e = {0, ""};
@@ -926,12 +959,10 @@ static int cmd_lod(const cli *c)
     const dracoout_options draco_opt = draco_options_of(c);
     draco_job *draco_jobs = calloc((size_t)s.mesh_count + 1, sizeof *draco_jobs);
     uint32_t draco_job_count = 0;
-    mesh_ahead *ahead = calloc(AHEAD_MESHES, sizeof *ahead);
-    uint32_t ahead_count = 0, ahead_next = 0;
-    if (!draco_jobs || !ahead) {
+    ahead_queue ahead;
+    if (!draco_jobs || ahead_begin(&ahead, &s, c, &draco_opt, &opt, 1)) {
         lp_say("%s: out of memory", in);
-        free(draco_jobs);
-        free(ahead);
+        free(draco_jobs); /* (a queue that failed has nothing to free) */
         scene_free(&s);
         return LP_INVALID;
     }
@@ -950,20 +981,15 @@ static int cmd_lod(const cli *c)
     for (uint32_t m = 0; m < s.mesh_count && !rc; ++m) {
         const scene_mesh *mesh = &s.meshes[m];
         if (!mesh->instance_count || !mesh->triangle_count) continue;
-        if (!mesh_to_chain(&s, m)) {
+        if (!ahead.take[m]) { /* every node that uses it has MSFT_lod */
             if (!c->quiet)
                 lp_say("%s: warning: meshes[%u]: every node that uses it already has MSFT_lod; left as it is%s", in, m,
                        draco ? ", uncompressed (--draco compresses the chains it makes)" : "");
             continue;
         }
-        if (ahead_next == ahead_count) {
-            ahead_count = run_ahead(&s, c, mesh_to_chain, &draco_opt, &opt, m, ahead);
-            ahead_next = 0;
-        }
-        mesh_ahead *a = &ahead[ahead_next++];
-        if (a->mesh != m) { /* run_ahead takes the meshes this loop takes, in its order */
-            ahead_next--; /* freed below */
-            rc = lp_fail(&err, LP_PROMISE, "meshes[%u]: simplified ahead as meshes[%u] (a bug)", m, a->mesh);
+        mesh_ahead *a = ahead_take(&ahead, m);
+        if (!a) {
+            rc = lp_fail(&err, LP_PROMISE, "meshes[%u]: not simplified ahead (a bug)", m);
             break;
         }
         weld_result w = a->w;
@@ -1047,12 +1073,7 @@ static int cmd_lod(const cli *c)
         simplify_result_free(&r);
     }
     jsonw_raw(&j, "]");
-    for (uint32_t i = ahead_next; i < ahead_count; ++i) /* done ahead of a mesh that failed */
-        if (ahead[i].welded) {
-            weld_free(&ahead[i].w);
-            simplify_result_free(&ahead[i].r);
-        }
-    free(ahead);
+    ahead_end(&ahead);
     if (!rc && draco) rc = draco_encode_all(&s, draco_jobs, draco_job_count, &draco_opt, &err);
     free(draco_jobs);
     /* an edit of the document that ran out of memory may show up as another

@@ -22,8 +22,8 @@ typedef struct draco_mesh draco_mesh;
 #define DRACO_OUT_OF_MEMORY (-2)
 
 /* Decodes a Draco *triangle mesh* stream (point clouds are refused).
- * Returns 0 and sets *out, or -1 (DRACO_OUT_OF_MEMORY) with a one-line
- * reason in err. */
+ * Returns 0 and sets *out, or -1 (DRACO_OUT_OF_MEMORY when memory ran out)
+ * with a one-line reason in err. */
 int draco_decode_mesh(const void *data, size_t size, draco_mesh **out,
                       char *err, size_t errlen);
 void draco_mesh_free(draco_mesh *mesh);
@@ -86,8 +86,8 @@ typedef struct draco_encode_options {
  * indices each, all < point_count) and the given attributes. On success
  * returns 0, sets *out / *out_size to a malloc'ed stream (caller frees) and
  * unique_ids[a] to attribute a's id in the stream (what the glTF extension's
- * "attributes" map names). Returns -1 (DRACO_OUT_OF_MEMORY) with a reason in
- * err otherwise. */
+ * "attributes" map names). Returns -1 (DRACO_OUT_OF_MEMORY when memory ran
+ * out) with a reason in err otherwise. */
 int draco_encode_mesh(uint32_t point_count, const uint32_t *indices, uint32_t face_count,
                       const draco_encode_attribute *attributes, size_t attribute_count,
                       const draco_encode_options *options, uint8_t **out, size_t *out_size,
