@@ -94,7 +94,7 @@ int accessor_read_floats(const gltf_doc *doc, int64_t index, float **out, uint32
     float *values = malloc((n ? (size_t)n * comps : 1) * sizeof *values);
     if (!values) {
         free(raw);
-        return lp_fail(err, LP_INVALID, "accessors[%lld]: out of memory", (long long)index);
+        return lp_no_memory(err, "accessors[%lld]: out of memory", (long long)index);
     }
     for (size_t i = 0; i < (size_t)n * comps; ++i)
         values[i] = decode_component(raw + i * csize, acc.component_type, acc.normalized);
@@ -125,7 +125,7 @@ int accessor_read_indices(const gltf_doc *doc, int64_t index, uint32_t vertex_co
         uint32_t *idx = malloc((n ? n : 1) * sizeof *idx);
         if (!idx) {
             free(values);
-            return lp_fail(err, LP_INVALID, "accessors[%lld]: out of memory", (long long)index);
+            return lp_no_memory(err, "accessors[%lld]: out of memory", (long long)index);
         }
         for (uint32_t i = 0; i < n; ++i) {
             if (!(values[i] >= 0.0f && values[i] < (float)vertex_count)) {
@@ -150,7 +150,7 @@ int accessor_read_indices(const gltf_doc *doc, int64_t index, uint32_t vertex_co
     const uint8_t *base = span_in_view(doc, acc.buffer_view, acc.byte_offset, acc.count, size, stride, index, "", err);
     if (!base) return err->code;
     uint32_t *idx = malloc(acc.count ? (size_t)acc.count * sizeof *idx : sizeof *idx);
-    if (!idx) return lp_fail(err, LP_INVALID, "accessors[%lld]: out of memory", (long long)index);
+    if (!idx) return lp_no_memory(err, "accessors[%lld]: out of memory", (long long)index);
     for (uint64_t i = 0; i < acc.count; ++i) {
         idx[i] = decode_index(base + i * stride, size);
         if (idx[i] >= vertex_count) {
@@ -191,7 +191,7 @@ int accessor_read_raw(const gltf_doc *doc, int64_t index, uint8_t **out, uint32_
         if (!base) return err->code;
     }
     uint8_t *bytes = calloc(acc.count ? (size_t)(acc.count * elem) : 1, 1);
-    if (!bytes) return lp_fail(err, LP_INVALID, "accessors[%lld]: out of memory", (long long)index);
+    if (!bytes) return lp_no_memory(err, "accessors[%lld]: out of memory", (long long)index);
     if (base)
         for (uint64_t i = 0; i < acc.count; ++i) memcpy(bytes + i * elem, base + i * stride, (size_t)elem);
     if (acc.has_sparse) {

@@ -240,10 +240,10 @@ static int add_job(batch *b, const char *rel)
 static int scan(batch *b, const char *rel_dir, int depth, lp_error *err)
 {
     char *dir_path = rel_dir[0] ? join_path(b->source_dir, rel_dir) : strdup(b->source_dir);
-    if (!dir_path) return lp_fail(err, LP_INVALID, "%s: out of memory", b->source_dir);
+    if (!dir_path) return lp_no_memory(err, "%s: out of memory", b->source_dir);
     DIR *d = opendir(dir_path);
     if (!d) {
-        int rc = errno == ENOMEM ? lp_fail(err, LP_INVALID, "%s: out of memory", dir_path)
+        int rc = errno == ENOMEM ? lp_no_memory(err, "%s: out of memory", dir_path)
                                  : lp_fail(err, LP_IO, "%s: cannot read the folder (%s)", dir_path, strerror(errno));
         free(dir_path);
         return rc;
@@ -256,13 +256,13 @@ static int scan(batch *b, const char *rel_dir, int depth, lp_error *err)
         char *full = rel ? join_path(b->source_dir, rel) : NULL;
         struct stat st;
         if (!rel || !full) {
-            rc = lp_fail(err, LP_INVALID, "%s: out of memory", b->source_dir);
+            rc = lp_no_memory(err, "%s: out of memory", b->source_dir);
         } else if (lstat(full, &st) == 0) {
             if (S_ISDIR(st.st_mode)) {
                 int is_output = st.st_dev == b->output_stat.st_dev && st.st_ino == b->output_stat.st_ino;
                 if (!is_output && depth < MAX_SCAN_DEPTH) rc = scan(b, rel, depth + 1, err);
             } else if (has_gltf_extension(e->d_name) && stat(full, &st) == 0 && S_ISREG(st.st_mode)) {
-                if (add_job(b, rel)) rc = lp_fail(err, LP_INVALID, "%s: out of memory", b->source_dir);
+                if (add_job(b, rel)) rc = lp_no_memory(err, "%s: out of memory", b->source_dir);
             }
         }
         free(rel);
@@ -436,16 +436,18 @@ static int write_manifest(batch *b, lp_error *err)
     jsonw_raw(&w, "\n]}\n");
     if (w.failed) {
         jsonw_free(&w);
-        return lp_fail(err, LP_INVALID, "%s: out of memory writing the cache manifest", b->output_dir);
+        return lp_no_memory(err, "%s: out of memory writing the cache manifest", b->output_dir);
     }
     char *path = join_path(b->output_dir, MANIFEST_NAME);
     gltf_out_file f = {(char *)MANIFEST_NAME, (uint8_t *)w.text, w.length};
     int rc = path ? output_write_all(path, &f, 1, NULL, 0, NULL, 0, err)
-                  : lp_fail(err, LP_INVALID, "%s: out of memory writing the cache manifest", b->output_dir);
+                  : lp_no_memory(err, "%s: out of memory writing the cache manifest", b->output_dir);
     if (rc && path) { /* output.c's messages leave the file to the caller, as report() in main.c does */
         char msg[sizeof err->msg];
+        const int out_of_memory = err->out_of_memory;
         snprintf(msg, sizeof msg, "%s", err->msg);
         lp_fail(err, rc, "%s: %s", path, msg);
+        err->out_of_memory = out_of_memory;
     }
     free(path);
     jsonw_free(&w);
@@ -1058,7 +1060,7 @@ static int write_job_config(batch *b, lp_error *err)
     if (config.run.threads == 0) config.run.threads = b->threads_per_job;
     size_t n = config_write(&config, CONFIG_TOML, NULL, 0);
     char *text = malloc(n + 1);
-    if (!text) return lp_fail(err, LP_INVALID, "%s: out of memory", b->output_dir);
+    if (!text) return lp_no_memory(err, "%s: out of memory", b->output_dir);
     config_write(&config, CONFIG_TOML, text, n + 1);
     snprintf(b->config_path, sizeof b->config_path, "%s/.lodpipe-batch-XXXXXX.toml", b->output_dir);
     int fd = mkstemps(b->config_path, 5);
@@ -1318,7 +1320,7 @@ static int prepare(batch *b, lp_error *err)
     if (stat(b->source_dir, &src) != 0 || !S_ISDIR(src.st_mode))
         return lp_fail(err, LP_IO, "%s: not a readable folder", b->source_dir);
     if (make_folders(b->output_dir) != 0 || stat(b->output_dir, &b->output_stat) != 0 || !S_ISDIR(b->output_stat.st_mode))
-        return errno == ENOMEM ? lp_fail(err, LP_INVALID, "%s: out of memory", b->output_dir)
+        return errno == ENOMEM ? lp_no_memory(err, "%s: out of memory", b->output_dir)
                                : lp_fail(err, LP_IO, "%s: cannot create the output folder (%s)", b->output_dir, strerror(errno));
     if (src.st_dev == b->output_stat.st_dev && src.st_ino == b->output_stat.st_ino)
         return lp_fail(err, LP_USAGE, "%s: the output folder must differ from the source folder", b->output_dir);
@@ -1327,7 +1329,7 @@ static int prepare(batch *b, lp_error *err)
     char *manifest = join_path(b->output_dir, MANIFEST_NAME);
     struct stat st;
     int rc = LP_OK;
-    if (!manifest) rc = lp_fail(err, LP_INVALID, "%s: out of memory", b->output_dir);
+    if (!manifest) rc = lp_no_memory(err, "%s: out of memory", b->output_dir);
     else if (lstat(manifest, &st) == 0 && S_ISDIR(st.st_mode))
         rc = lp_fail(err, LP_IO, "%s: cannot write the cache manifest (Is a directory)", manifest);
     else if (access(b->output_dir, W_OK) != 0)
@@ -1335,7 +1337,7 @@ static int prepare(batch *b, lp_error *err)
     free(manifest);
     if (rc) return rc;
     const int inside = folder_contains(&b->output_stat, b->source_dir);
-    if (inside < 0) return lp_fail(err, LP_INVALID, "%s: out of memory", b->output_dir);
+    if (inside < 0) return lp_no_memory(err, "%s: out of memory", b->output_dir);
     if (inside)
         return lp_fail(err, LP_USAGE,
                        "%s: the output folder must not contain the source folder (an output could replace a source)",
@@ -1346,7 +1348,7 @@ static int prepare(batch *b, lp_error *err)
     rc = scan(b, "", 0, err);
     if (rc) return rc;
     if (b->job_count) qsort(b->jobs, b->job_count, sizeof *b->jobs, by_relative_path); /* jobs is NULL when none */
-    if (compute_key_prefix(b)) return lp_fail(err, LP_INVALID, "%s: out of memory", b->output_dir);
+    if (compute_key_prefix(b)) return lp_no_memory(err, "%s: out of memory", b->output_dir);
     return LP_OK;
 }
 
@@ -1396,9 +1398,9 @@ int batch_run(const batch_options *options)
     b.start = lp_seconds();
     b.source_dir = strip_slashes(options->source_dir);
     b.output_dir = strip_slashes(options->output_dir);
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     int rc = b.source_dir && b.output_dir ? prepare(&b, &err)
-                                          : lp_fail(&err, LP_INVALID, "%s: out of memory", options->source_dir);
+                                          : lp_no_memory(&err, "%s: out of memory", options->source_dir);
     if (rc) {
         lp_say("%s", err.msg);
         free_batch(&b);
@@ -1430,7 +1432,7 @@ int batch_run(const batch_options *options)
         run_jobs(&b);
         unlink(b.config_path);
         /* unchecked outputs are not recorded: the next run builds them again */
-        if (check_written_outputs(&b) != 0) rc = lp_fail(&err, LP_INVALID, "%s: out of memory checking the jobs' outputs", b.output_dir);
+        if (check_written_outputs(&b) != 0) rc = lp_no_memory(&err, "%s: out of memory checking the jobs' outputs", b.output_dir);
     }
     double wall = lp_seconds() - b.start;
     totals t = count_totals(&b);

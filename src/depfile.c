@@ -58,7 +58,7 @@ char *depfile_text(const char *target, const char *const *deps, size_t count, lp
     jsonw_raw(&w, "\n");
     if (w.failed) {
         jsonw_free(&w);
-        lp_fail(err, LP_INVALID, "out of memory");
+        lp_no_memory(err, "out of memory");
         return NULL;
     }
     return w.text;

@@ -180,7 +180,7 @@ int dracoout_budget(const scene *s, uint32_t m, const dracoout_options *o, doubl
         free(lo);
         free(hi);
         free(used);
-        return lp_fail(err, LP_INVALID, "out of memory");
+        return lp_no_memory(err, "out of memory");
     }
     level_boxes(mesh, NULL, NULL, lo, hi, used);
     double box_lo[3], box_hi[3];
@@ -215,7 +215,7 @@ int dracoout_plan_mesh(const scene *s, uint32_t m, const weld_result *w, const s
         free(lo);
         free(hi);
         free(used);
-        return lp_fail(err, LP_INVALID, "out of memory");
+        return lp_no_memory(err, "out of memory");
     }
     for (uint32_t k = 0; k <= levels; ++k) {
         level_boxes(mesh, w, k ? &r->levels[k - 1] : NULL, lo + 3 * n * k, hi + 3 * n * k, used + n * k);
@@ -318,7 +318,7 @@ static int describe_accessor(gltf_doc *doc, int64_t a, uint32_t count, int type,
     if (normalized) jsonw_raw(&j, ",\"normalized\":true");
     if (data) json_min_max(&j, data, count, type, components);
     jsonw_raw(&j, "}");
-    if (j.failed) return lp_fail(err, LP_INVALID, "out of memory");
+    if (j.failed) return lp_no_memory(err, "out of memory");
     int rc = LP_OK;
     if (a >= 0 && gltf_accessor_refs(doc, (size_t)a) == 1) {
         static const char *const kKeys[] = {"bufferView", "byteOffset", "componentType", "normalized",
@@ -326,7 +326,7 @@ static int describe_accessor(gltf_doc *doc, int64_t a, uint32_t count, int type,
         /* the description goes into a scratch accessor at the end, its keys are
          * moved over, and the scratch one is removed (it is last: no renumbering) */
         int64_t scratch = gltf_append_json(doc, "accessors", j.text);
-        if (scratch < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
+        if (scratch < 0) rc = lp_no_memory(err, "out of memory");
         for (size_t k = 0; k < sizeof kKeys / sizeof kKeys[0] && !rc; ++k) {
             char from[96], to[96];
             snprintf(from, sizeof from, "/accessors/%lld/%s", (long long)scratch, kKeys[k]);
@@ -338,7 +338,7 @@ static int describe_accessor(gltf_doc *doc, int64_t a, uint32_t count, int type,
         *result = a;
     } else {
         *result = gltf_append_json(doc, "accessors", j.text);
-        if (*result < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
+        if (*result < 0) rc = lp_no_memory(err, "out of memory");
     }
     jsonw_free(&j);
     return rc;
@@ -426,7 +426,7 @@ static int pack_primitive(const gltf_doc *doc, const gltf_primitive *g, const ui
     pp->accessors = calloc(g->attribute_count + 1, sizeof *pp->accessors);
     if (!new_of_old || !pp->points || !pp->faces || !pp->attributes || !pp->values || !pp->accessors) {
         free(new_of_old);
-        return lp_fail(err, LP_INVALID, "out of memory");
+        return lp_no_memory(err, "out of memory");
     }
     /* points in ascending original order: deterministic, and the identity when
      * every vertex is used */
@@ -455,7 +455,7 @@ static int pack_primitive(const gltf_doc *doc, const gltf_primitive *g, const ui
         }
         pp->values[a] = gather(raw, elem, pp->points, pp->point_count);
         free(raw);
-        if (!pp->values[a]) return lp_fail(err, LP_INVALID, "out of memory");
+        if (!pp->values[a]) return lp_no_memory(err, "out of memory");
         draco_encode_attribute *d = &pp->attributes[a];
         d->semantic = semantic_of(g->attributes[a].name, acc.component_type, acc.components);
         d->gltf_component_type = acc.component_type;
@@ -497,7 +497,7 @@ static int encode_checked(const packed_primitive *pp, const dracoout_options *o,
         const int encoded = draco_encode_mesh(pp->point_count, pp->faces, pp->face_count, pp->attributes,
                                               pp->attribute_count, &eo, stream, size, ids, why, sizeof why);
         /* (not a refusal: sequential would make other bytes of the same input) */
-        if (encoded == DRACO_OUT_OF_MEMORY) return lp_fail(err, LP_INVALID, "%s", why);
+        if (encoded == DRACO_OUT_OF_MEMORY) return lp_no_memory(err, "%s", why);
         if (encoded != 0) {
             /* edgebreaker refuses a primitive whose every face has a repeated
              * point ("All triangles are degenerate."), e.g. one made only of
@@ -509,7 +509,7 @@ static int encode_checked(const packed_primitive *pp, const dracoout_options *o,
         const int decoded_rc = draco_decode_mesh(*stream, *size, decoded, why, sizeof why);
         if (decoded_rc != 0) {
             free(*stream);
-            if (decoded_rc == DRACO_OUT_OF_MEMORY) return lp_fail(err, LP_INVALID, "%s", why);
+            if (decoded_rc == DRACO_OUT_OF_MEMORY) return lp_no_memory(err, "%s", why);
             return lp_fail(err, LP_PROMISE, "Draco: our own stream does not decode: %s", why);
         }
         if (draco_mesh_num_faces(*decoded) == pp->face_count) break;
@@ -524,7 +524,7 @@ static int encode_checked(const packed_primitive *pp, const dracoout_options *o,
     if (draco_mesh_num_points(*decoded) != pp->point_count)
         return lp_fail(err, LP_PROMISE, "Draco: sequential stream changed the point count");
     float *x = malloc(3 * (size_t)pp->point_count * sizeof *x + 1);
-    if (!x) return lp_fail(err, LP_INVALID, "out of memory");
+    if (!x) return lp_no_memory(err, "out of memory");
     int rc = LP_OK;
     if (draco_mesh_read_attribute(*decoded, ids[pp->position], 5126, 3, x, why, sizeof why) != 0)
         rc = lp_fail(err, LP_PROMISE, "Draco: %s", why);
@@ -547,7 +547,7 @@ static uint8_t *decoded_values(const draco_mesh *dm, const packed_primitive *pp,
     uint8_t *out = malloc((size_t)points * d->components * component_size(d->gltf_component_type) + 1);
     char why[256] = "";
     if (!out) {
-        lp_fail(err, LP_INVALID, "out of memory");
+        lp_no_memory(err, "out of memory");
         return NULL;
     }
     if (draco_mesh_read_attribute(dm, id, d->gltf_component_type, d->components, out, why, sizeof why) != 0) {
@@ -578,7 +578,7 @@ static int compact_targets(gltf_doc *doc, uint32_t mesh, uint32_t prim, const gl
             if (!data) return lp_fail(err, LP_INVALID, "accessors[%lld]: morph target does not match its primitive",
                                       (long long)ta->accessor);
             int64_t view = vertex_view(doc, data, pp->point_count, elem, 34962, 0), result = -1;
-            rc = view < 0 ? lp_fail(err, LP_INVALID, "out of memory")
+            rc = view < 0 ? lp_no_memory(err, "out of memory")
                           : describe_accessor(doc, ta->accessor, pp->point_count, acc.component_type, acc.components,
                                               acc.normalized, view, data, &result, err);
             free(data);
@@ -598,7 +598,7 @@ static int write_primitive(gltf_doc *doc, uint32_t mesh, uint32_t prim, const gl
 {
     const uint32_t points = draco_mesh_num_points(dm), faces = draco_mesh_num_faces(dm);
     int64_t stream_view = gltf_add_view_in(doc, stream, size, 0, 0, 0);
-    if (stream_view < 0) return lp_fail(err, LP_INVALID, "out of memory");
+    if (stream_view < 0) return lp_no_memory(err, "out of memory");
     jsonw ext = {0};
     jsonw_printf(&ext, "{\"bufferView\":%lld,\"attributes\":{", (long long)stream_view);
     int rc = LP_OK;
@@ -611,7 +611,7 @@ static int write_primitive(gltf_doc *doc, uint32_t mesh, uint32_t prim, const gl
         if (!rc && o->fallback) {
             view = vertex_view(doc, values, points, (uint32_t)d->components * component_size(d->gltf_component_type),
                                34962, 1);
-            if (view < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
+            if (view < 0) rc = lp_no_memory(err, "out of memory");
         }
         if (!rc)
             rc = describe_accessor(doc, pp->accessors[a], points, d->gltf_component_type, d->components, d->normalized,
@@ -632,7 +632,7 @@ static int write_primitive(gltf_doc *doc, uint32_t mesh, uint32_t prim, const gl
     if (!rc && o->fallback) {
         uint32_t *idx = malloc(3 * (size_t)faces * sizeof *idx + 4);
         uint8_t *bytes = malloc(3 * (size_t)faces * 4 + 4);
-        if (!idx || !bytes) rc = lp_fail(err, LP_INVALID, "out of memory");
+        if (!idx || !bytes) rc = lp_no_memory(err, "out of memory");
         if (!rc) {
             draco_mesh_read_indices(dm, idx);
             for (size_t i = 0; i < 3 * (size_t)faces; ++i) {
@@ -645,7 +645,7 @@ static int write_primitive(gltf_doc *doc, uint32_t mesh, uint32_t prim, const gl
             }
             size_t n = (3 * (size_t)faces * component_size(index_type) + 3) & ~(size_t)3;
             index_view = gltf_add_view_in(doc, bytes, n, 0, 34963, 1);
-            if (index_view < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
+            if (index_view < 0) rc = lp_no_memory(err, "out of memory");
         }
         free(idx);
         free(bytes);
@@ -657,7 +657,7 @@ static int write_primitive(gltf_doc *doc, uint32_t mesh, uint32_t prim, const gl
         snprintf(value, sizeof value, "%lld", (long long)index_accessor);
         if (ext.failed || gltf_set_jsonf(doc, value, "/meshes/%u/primitives/%u/indices", mesh, prim) != 0 ||
             gltf_set_jsonf(doc, ext.text, "/meshes/%u/primitives/%u/extensions/KHR_draco_mesh_compression", mesh, prim) != 0)
-            rc = lp_fail(err, LP_INVALID, "out of memory writing the Draco primitive");
+            rc = lp_no_memory(err, "out of memory writing the Draco primitive");
         gltf_remove_jsonf(doc, "/meshes/%u/primitives/%u/mode", mesh, prim); /* triangles */
     }
     jsonw_free(&ext);
@@ -685,7 +685,7 @@ static int encode_primitive(scene *s, uint32_t mesh, uint32_t prim, const uint32
     uint32_t *ids = calloc(pp.attribute_count + 1, sizeof *ids);
     draco_mesh *dm = NULL;
     int sequential = 0;
-    if (!rc && !ids) rc = lp_fail(err, LP_INVALID, "out of memory");
+    if (!rc && !ids) rc = lp_no_memory(err, "out of memory");
     if (!rc) rc = encode_checked(&pp, o, g.target_count > 0, &stream, &size, ids, &dm, &sequential, err);
     if (!rc) rc = compact_targets(s->doc, mesh, prim, &g, &pp, vertex_count, err);
     if (!rc) rc = write_primitive(s->doc, mesh, prim, &g, &pp, stream, size, ids, dm, o, err);

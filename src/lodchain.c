@@ -135,13 +135,13 @@ static int reorder_accessor(gltf_doc *doc, int64_t a, const uint32_t *new_of_old
     uint8_t *out = calloc((size_t)count * stride + 1, 1);
     if (!out) {
         free(raw);
-        return lp_fail(err, LP_INVALID, "out of memory");
+        return lp_no_memory(err, "out of memory");
     }
     for (uint32_t i = 0; i < count; ++i) memcpy(out + (size_t)new_of_old[i] * stride, raw + (size_t)i * elem, elem);
     int64_t view = gltf_add_view(doc, out, (size_t)count * stride, stride != elem ? stride : 0, 34962);
     free(raw);
     free(out);
-    if (view < 0) return lp_fail(err, LP_INVALID, "out of memory");
+    if (view < 0) return lp_no_memory(err, "out of memory");
     gltf_accessor old;
     if (gltf_get_accessor(doc, (size_t)a, &old) == 0 && old.buffer_view >= 0)
         gltf_view_replaces(doc, view, old.buffer_view);
@@ -244,7 +244,7 @@ static int reorder_primitive(scene *s, uint32_t m, uint32_t p, const uint32_t *o
     } else {
         n = pr->vertex_count;
         idx = malloc(((size_t)n + 1) * sizeof *idx);
-        if (!idx) return lp_fail(err, LP_INVALID, "out of memory");
+        if (!idx) return lp_no_memory(err, "out of memory");
         for (uint32_t i = 0; i < n; ++i) idx[i] = i;
     }
     for (uint32_t i = 0; i < n; ++i) idx[i] = new_of_old[idx[i]];
@@ -254,7 +254,7 @@ static int reorder_primitive(scene *s, uint32_t m, uint32_t p, const uint32_t *o
         gltf_get_accessor(s->doc, (size_t)g.indices, &acc);
         int type = acc.component_type;
         int64_t view = index_view(s->doc, idx, n, &type);
-        if (view < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
+        if (view < 0) rc = lp_no_memory(err, "out of memory");
         else if (acc.buffer_view >= 0) gltf_view_replaces(s->doc, view, acc.buffer_view);
         snprintf(value, sizeof value, "%lld", (long long)view);
         if (!rc) rc = set_json(s->doc, err, value, "/accessors/%lld/bufferView", (long long)g.indices);
@@ -262,7 +262,7 @@ static int reorder_primitive(scene *s, uint32_t m, uint32_t p, const uint32_t *o
         gltf_remove_jsonf(s->doc, "/accessors/%lld/sparse", (long long)g.indices);
     } else {
         int64_t a = append_indices(s->doc, idx, n);
-        if (a < 0) rc = lp_fail(err, LP_INVALID, "out of memory");
+        if (a < 0) rc = lp_no_memory(err, "out of memory");
         snprintf(value, sizeof value, "%lld", (long long)a);
         if (!rc) rc = set_json(s->doc, err, value, "/meshes/%u/primitives/%u/indices", m, p);
     }
@@ -407,7 +407,7 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
 {
     const scene_mesh *mesh = &s->meshes[m];
     char *name = lod_name(mesh->name, "mesh", m, number);
-    if (!name) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+    if (!name) return lp_no_memory(err, "out of memory"), -1;
     jsonw j = {0};
     jsonw_raw(&j, "{\"name\":");
     jsonw_string(&j, name);
@@ -415,7 +415,7 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
     jsonw_raw(&j, ",\"primitives\":[]}");
     int64_t lod = j.failed ? -1 : gltf_append_json(s->doc, "meshes", j.text);
     jsonw_free(&j);
-    if (lod < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+    if (lod < 0) return lp_no_memory(err, "out of memory"), -1;
     /* the mesh's own properties: default morph weights, and extras and
      * extensions (extras.targetNames names the morph targets for clients) */
     copy_members(s->doc, "meshes", m, lod, (const char *const[]){"weights", "extras", "extensions", NULL});
@@ -434,7 +434,7 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
         for (uint32_t t = 0; t < level->triangle_count; ++t) n += level->primitive[t] == p;
         if (n == 0) continue;
         uint32_t *idx = malloc(3 * n * sizeof *idx);
-        if (!idx) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+        if (!idx) return lp_no_memory(err, "out of memory"), -1;
         size_t k = 0;
         for (uint32_t t = 0; t < level->triangle_count; ++t) {
             if (level->primitive[t] != p) continue;
@@ -442,7 +442,7 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
         }
         int64_t a = append_indices(s->doc, idx, k);
         free(idx);
-        if (a < 0 || gltf_copy_json(s->doc, from, to) != 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+        if (a < 0 || gltf_copy_json(s->doc, from, to) != 0) return lp_no_memory(err, "out of memory"), -1;
         char value[32];
         snprintf(value, sizeof value, "%lld", (long long)a);
         if (set_json(s->doc, err, value, "/meshes/%lld/primitives/%u/indices", (long long)lod, written)) return -1;
@@ -451,7 +451,7 @@ static int64_t write_level_mesh(scene *s, uint32_t m, const weld_result *w, cons
             gltf_get_primitive(s->doc, m, p, &g);
             const int64_t base = gltf_primitive_attribute(&g, "POSITION");
             int64_t moved = base < 0 ? -2 : level_positions(s->doc, pr, p, base, w, level, new_of_old[p]);
-            if (moved == -1) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+            if (moved == -1) return lp_no_memory(err, "out of memory"), -1;
             snprintf(value, sizeof value, "%lld", (long long)moved);
             if (moved >= 0 &&
                 set_json(s->doc, err, value, "/meshes/%lld/primitives/%u/attributes/POSITION", (long long)lod, written))
@@ -625,7 +625,7 @@ static int64_t mesh_carrier(scene *s, uint32_t n, lp_error *err)
     jsonw_printf(&j, ",\"mesh\":%lld}", (long long)s->nodes[n].mesh);
     int64_t carrier = !name || j.failed ? -1 : gltf_append_json(s->doc, "nodes", j.text);
     jsonw_free(&j);
-    if (carrier < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+    if (carrier < 0) return lp_no_memory(err, "out of memory"), -1;
     char from[96], to[96], value[32];
     for (const char *const *key = (const char *const[]){"skin", "weights", "extensions/EXT_mesh_gpu_instancing", NULL};
          *key; ++key) {
@@ -662,7 +662,7 @@ static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64
                               lp_error *err)
 {
     char *name = lod_name(s->nodes[named].name, "node", named, number);
-    if (!name) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+    if (!name) return lp_no_memory(err, "out of memory"), -1;
     jsonw j = {0};
     jsonw_raw(&j, "{\"name\":");
     jsonw_string(&j, name);
@@ -670,7 +670,7 @@ static int64_t write_lod_node(scene *s, uint32_t named, int64_t from_node, int64
     jsonw_printf(&j, ",\"mesh\":%lld}", (long long)lod_mesh);
     int64_t id = j.failed ? -1 : gltf_append_json(s->doc, "nodes", j.text);
     jsonw_free(&j);
-    if (id < 0) return lp_fail(err, LP_INVALID, "out of memory"), -1;
+    if (id < 0) return lp_no_memory(err, "out of memory"), -1;
     copy_members(s->doc, "nodes", from_node, id, kLodNodeCopies);
     return id;
 }
@@ -684,7 +684,7 @@ static int index_channels(scene *s, lp_error *err)
     const size_t animations = gltf_count(s->doc, GLTF_ANIMATIONS);
     for (size_t a = 0; a < animations; ++a) total += gltf_channel_count(s->doc, a);
     s->channels = calloc(total + 1, sizeof *s->channels);
-    if (!s->channels) return lp_fail(err, LP_INVALID, "out of memory");
+    if (!s->channels) return lp_no_memory(err, "out of memory");
     for (size_t a = 0; a < animations; ++a)
         for (size_t c = 0; c < gltf_channel_count(s->doc, a); ++c) {
             scene_channel *e = &s->channels[s->channel_count++];
@@ -844,7 +844,7 @@ static int annotate_node(scene *s, int64_t node_id, uint32_t placed, uint32_t m,
     jsonw_number(&coverage, switching_cull_coverage(&o->camera));
     jsonw_raw(&coverage, "]");
     jsonw_raw(&meta, "]}");
-    if (ids.failed || coverage.failed || meta.failed) rc = lp_fail(err, LP_INVALID, "out of memory");
+    if (ids.failed || coverage.failed || meta.failed) rc = lp_no_memory(err, "out of memory");
     if (!rc) rc = set_json(s->doc, err, ids.text, "/nodes/%u/extensions/MSFT_lod", node);
     /* a node with extras of its own hands the chain to a carrier
      * (lost_in_swap), so this node's extras are absent or {} */
@@ -874,7 +874,7 @@ int lodchain_mesh_triangles(const scene *s, uint32_t m, const weld_result *w, co
     *triangles = malloc((3 * tris + 1) * sizeof **triangles);
     if (!base || !*positions || !*triangles) {
         free(base);
-        return lp_fail(err, LP_INVALID, "out of memory");
+        return lp_no_memory(err, "out of memory");
     }
     size_t v = 0, k = 0;
     for (uint32_t p = 0; p < mesh->primitive_count; ++p) {
@@ -947,7 +947,7 @@ static int repeated_targets(const scene *s, uint32_t m, const weld_result *w, ui
                             lp_error *err)
 {
     uint8_t (*digests)[SHA256_BYTES] = calloc(targets, sizeof *digests);
-    if (!digests) return lp_fail(err, LP_INVALID, "out of memory");
+    if (!digests) return lp_no_memory(err, "out of memory");
     int rc = LP_OK;
     for (uint32_t t = 0; t < targets && !rc; ++t) {
         float *positions = NULL;
@@ -1028,7 +1028,7 @@ static int fill_slot(const scene *s, uint32_t m, const weld_result *w, const sim
     if (rc) return rc;
     const bvh_result built = bvh_build(&slot->tree, slot->lod0.positions, slot->lod0.vertex_count,
                                        slot->lod0.triangles, slot->lod0.triangle_count);
-    if (built == BVH_ERROR_OUT_OF_MEMORY) return lp_fail(err, LP_INVALID, "out of memory measuring morph target %u", t);
+    if (built == BVH_ERROR_OUT_OF_MEMORY) return lp_no_memory(err, "out of memory measuring morph target %u", t);
     slot->built = built == BVH_OK;
     for (uint32_t k = 0; k < level_count && !rc; ++k) {
         const simplify_level *level = &r->levels[kept[k]];
@@ -1076,7 +1076,7 @@ static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, cons
     float *unmoved[SIMPLIFY_MAX_LEVELS] = {0}; /* a level's positions without a target: not used */
     uint32_t *level_triangles[SIMPLIFY_MAX_LEVELS] = {0};
     measure_mesh levels[SIMPLIFY_MAX_LEVELS];
-    int rc = out->morph_errors && same && slots ? LP_OK : lp_fail(err, LP_INVALID, "out of memory");
+    int rc = out->morph_errors && same && slots ? LP_OK : lp_no_memory(err, "out of memory");
     if (!rc) rc = repeated_targets(s, m, w, targets, same, err);
     for (uint32_t k = 0; k < level_count && !rc; ++k)
         rc = lodchain_mesh_triangles(s, m, w, &r->levels[kept[k]], -1, &unmoved[k], &level_triangles[k], &levels[k], err);
@@ -1096,7 +1096,7 @@ static int measure_morphs(const scene *s, uint32_t m, const weld_result *w, cons
         for (uint32_t i = 0; i < work.slot_count && !rc; ++i) /* a level's tree could not be built */
             for (uint32_t k = 0; k < level_count && !rc; ++k)
                 if (out->morph_errors[(size_t)k * targets + work.slots[i].target] == MEASURE_NO_MEMORY)
-                    rc = lp_fail(err, LP_INVALID, "out of memory measuring morph target %u", work.slots[i].target);
+                    rc = lp_no_memory(err, "out of memory measuring morph target %u", work.slots[i].target);
         for (uint32_t i = 0; i < work.slot_count; ++i) free_slot(&slots[i], level_count);
     }
     for (uint32_t t = 0; t < targets && !rc; ++t)
@@ -1135,14 +1135,14 @@ int lodchain_write(scene *s, uint32_t m, const weld_result *w, const simplify_re
     if (rc) return rc;
     uint32_t **new_of_old = calloc(mesh->primitive_count + 1, sizeof *new_of_old);
     uint8_t *wedge_death = wedge_deaths(w, r);
-    rc = new_of_old && wedge_death ? LP_OK : lp_fail(err, LP_INVALID, "out of memory");
+    rc = new_of_old && wedge_death ? LP_OK : lp_no_memory(err, "out of memory");
     for (uint32_t p = 0; p < mesh->primitive_count && !rc; ++p) {
         const scene_primitive *pr = &mesh->primitives[p];
         if (pr->skipped || pr->mode < 4 || pr->triangle_count == 0) continue;
         uint32_t *order = malloc(((size_t)pr->vertex_count + 1) * sizeof *order);
         new_of_old[p] = malloc(((size_t)pr->vertex_count + 1) * sizeof *new_of_old[p]);
         if (!order || !new_of_old[p] || vertex_order(w, wedge_death, p, pr->vertex_count, order))
-            rc = lp_fail(err, LP_INVALID, "out of memory");
+            rc = lp_no_memory(err, "out of memory");
         int reordered = 0;
         if (!rc && o->keep_vertex_order)
             for (uint32_t i = 0; i < pr->vertex_count; ++i) new_of_old[p][i] = i;

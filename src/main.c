@@ -143,7 +143,7 @@ static int load(const cli *c, const char *path, scene *s)
     scene_options opt;
     memset(&opt, 0, sizeof opt);
     opt.load.allow_external_uris = c->allow_external_uris;
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     int rc = scene_load(path, &opt, s, &err);
     if (rc) return report(path, &err);
     print_warnings(c, path, s);
@@ -187,7 +187,7 @@ static int cmd_inspect(const cli *c)
         for (uint32_t i = 0; i < mesh->instance_count; ++i) {
             const scene_node *n = &s.nodes[mesh->instances[i]];
             double stretch;
-            lp_error ignored = {0, ""};
+            lp_error ignored = {0, "", 0};
             if (scene_mesh_stretch(&s, mesh->instances[i], &stretch, &ignored)) stretch = NAN;
             printf(" %u \"%s\" (scale %.6g)", mesh->instances[i], one_line(name, sizeof name, n->name), stretch);
         }
@@ -227,7 +227,7 @@ static int output_usable(const cli *c, const char *in, const char *out)
         lp_say("%s: refusing to overwrite the input (use --force)", out);
         return LP_USAGE;
     }
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     if (output_check_folder(out, &err)) return report(out, &err); /* now, not after the work */
     if (c->depfile) {
         const char *named = output_same_path(c->depfile, out)  ? "output"
@@ -299,7 +299,7 @@ static int write_document(const cli *c, const char *in, const gltf_doc *doc, con
     gltf_out_file *files = NULL;
     size_t count = 0;
     char msg[512];
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     const size_t inputs = in ? gltf_external_file_count(doc) + 1 : 0;
     output_guard *guards = calloc(inputs + 3, sizeof *guards);
     size_t guard_count = 0;
@@ -320,7 +320,7 @@ static int write_document(const cli *c, const char *in, const gltf_doc *doc, con
         lp_fail(&err, rc, "%s", msg);
         rc = report(out, &err);
     } else if (json_report && finish_json_report(json_report, out, files, count) != 0) {
-        lp_fail(&err, LP_INVALID, "out of memory for the --json report");
+        lp_no_memory(&err, "out of memory for the --json report");
         rc = report(out, &err);
     } else if ((rc = output_write_all(out, files, count, &also, depfile ? 1 : 0, guards, guard_count, &err)) != 0) {
         rc = report(out, &err);
@@ -355,7 +355,7 @@ static int draco_lod0_only(const cli *c, const char *in, scene *s)
 {
     dracoout_options o = draco_options_of(c);
     dracoout_stats stats = {0};
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     int rc = LP_OK;
     for (uint32_t m = 0; m < s->mesh_count && !rc; ++m) {
         if (!s->meshes[m].instance_count || !s->meshes[m].triangle_count) continue;
@@ -416,7 +416,7 @@ static int weld_and_simplify(scene *s, uint32_t m, const simplify_options *opt, 
     weld_release_edge_opposite(w); /* nothing after the weld reads it */
     scene_release_mesh_data(s, m);
     int64_t *materials = malloc(((size_t)mesh->primitive_count + 1) * sizeof *materials);
-    if (!materials) rc = lp_fail(err, LP_INVALID, "out of memory");
+    if (!materials) rc = lp_no_memory(err, "out of memory");
     for (uint32_t p = 0; materials && p < mesh->primitive_count; ++p) materials[p] = mesh->primitives[p].material;
     if (!rc) rc = simplify_mesh(w, materials, opt, r, err);
     if (!rc) r->seconds_weld = weld_seconds;
@@ -489,7 +489,7 @@ static void ahead_item(void *arg, uint32_t i)
     /* (the items are reused from run to run: nothing of the last may stay) */
     memset(&a->w, 0, sizeof a->w);
     memset(&a->r, 0, sizeof a->r);
-    a->err = (lp_error){0, ""};
+    a->err = (lp_error){0, "", 0};
     a->rc = LP_OK;
     a->bits = q->draco ? q->draco->position_bits : 0;
     double budget = 0;
@@ -572,7 +572,7 @@ static void ahead_end(ahead_queue *q)
 /* Stages `size` bytes for path in the command's output set (output.h). */
 static int stage_bytes(output_set *set, const char *path, const char *bytes, size_t size)
 {
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     int rc = output_stage(set, path, (const uint8_t *)bytes, size, &err);
     if (rc) report(path, &err);
     return rc;
@@ -686,8 +686,8 @@ static int write_obj(output_set *set, const char *path, const weld_result *w, co
     }
     if (!f || memstream_close(f, &buf) || bad) {
         free(buf);
-        lp_error e = {0, ""};
-        lp_fail(&e, LP_INVALID, "out of memory formatting the OBJ");
+        lp_error e = {0, "", 0};
+        lp_no_memory(&e, "out of memory formatting the OBJ");
         return report(path, &e);
     }
     int rc = stage_bytes(set, path, buf, size);
@@ -745,7 +745,7 @@ static int cmd_simplify(const cli *c)
     const char *in = c->operands[0], *dir = c->operands[1];
     char first_obj[4200];
     level_obj_path(first_obj, sizeof first_obj, dir, 0, 0);
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     if (output_check_folder(first_obj, &err)) return report(first_obj, &err);
     scene s;
     int rc = load(c, in, &s);
@@ -759,7 +759,7 @@ static int cmd_simplify(const cli *c)
     FILE *j = open_memstream(&json, &json_size);
     /* every OBJ and the JSON appear together at the end, or none does */
     output_set *set = NULL;
-    if (!j) lp_fail(&err, LP_INVALID, "out of memory");
+    if (!j) lp_no_memory(&err, "out of memory");
     if (!j || output_set_begin(&set, &err)) {
         if (j) fclose(j);
         free(json);
@@ -773,8 +773,8 @@ static int cmd_simplify(const cli *c)
     char path[4096];
     ahead_queue ahead;
     if (ahead_begin(&ahead, &s, c, NULL, &opt, 0)) {
-        lp_error e = {0, ""};
-        lp_fail(&e, LP_INVALID, "out of memory");
+        lp_error e = {0, "", 0};
+        lp_no_memory(&e, "out of memory");
         rc = report(in, &e);
     }
     for (uint32_t m = 0; m < s.mesh_count && !rc; ++m) {
@@ -782,7 +782,7 @@ static int cmd_simplify(const cli *c)
         if (!ahead.take[m]) continue;
         mesh_ahead *a = ahead_take(&ahead, m);
         if (!a) {
-            lp_error e = {0, ""};
+            lp_error e = {0, "", 0};
             lp_fail(&e, LP_PROMISE, "meshes[%u]: not simplified ahead (a bug)", m);
             rc = report(in, &e);
             break;
@@ -807,8 +807,8 @@ static int cmd_simplify(const cli *c)
                 }
                 obj_vertex_lines_free(&lines);
             } else {
-                lp_error e = {0, ""};
-                lp_fail(&e, LP_INVALID, "out of memory formatting the level OBJs");
+                lp_error e = {0, "", 0};
+                lp_no_memory(&e, "out of memory formatting the level OBJs");
                 report(dir, &e);
             }
             fprintf(j, "%s{\"mesh\":%u,\"name\":", first ? "" : ",", m);
@@ -840,8 +840,8 @@ static int cmd_simplify(const cli *c)
     ahead_end(&ahead);
     fprintf(j, "]}\n");
     if (memstream_close(j, &json) && !rc) {
-        lp_error e = {0, ""};
-        lp_fail(&e, LP_INVALID, "out of memory formatting simplify.json");
+        lp_error e = {0, "", 0};
+        lp_no_memory(&e, "out of memory formatting simplify.json");
         rc = report(dir, &e);
     }
     if (!rc) {
@@ -873,9 +873,9 @@ static int depfile_of(const cli *c, const char *in, const char *out, const gltf_
 {
     size_t count = 0, external = gltf_external_file_count(doc);
     const char **deps = malloc((external + 2) * sizeof *deps);
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     if (!deps) {
-        lp_fail(&err, LP_INVALID, "out of memory");
+        lp_no_memory(&err, "out of memory");
         return report(c->depfile, &err);
     }
     deps[count++] = in;
@@ -973,7 +973,7 @@ static int cmd_lod(const cli *c)
     jsonw_string(&j, out);
     jsonw_raw(&j, ",\"meshes\":[");
     int first = 1;
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     uint32_t scene_meshes = 0, simplified = 0, kept_any = 0, flat = 0;
     for (uint32_t m = 0; m < s.mesh_count; ++m) scene_meshes += s.meshes[m].instance_count && s.meshes[m].triangle_count;
     if (!scene_meshes && !c->quiet)
@@ -1078,8 +1078,8 @@ static int cmd_lod(const cli *c)
     free(draco_jobs);
     /* an edit of the document that ran out of memory may show up as another
      * failure ("cannot set ..."); say what it was */
-    if (rc && gltf_out_of_memory(s.doc)) lp_fail(&err, LP_INVALID, "out of memory");
-    if (!rc && c->json && j.failed) rc = lp_fail(&err, LP_INVALID, "out of memory for the --json report");
+    if (rc && gltf_out_of_memory(s.doc)) lp_no_memory(&err, "out of memory");
+    if (!rc && c->json && j.failed) rc = lp_no_memory(&err, "out of memory for the --json report");
     if (rc) {
         report(in, &err);
         jsonw_free(&j);
@@ -1204,7 +1204,7 @@ static int cmd_check(const cli *c)
     int rc = load(c, in, &s);
     if (rc) return rc;
     int failed = 0, chains = 0;
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     printf("%-6s %-6s %-6s %-10s %-14s %-14s %-14s %s\n", "node", "level", "mesh", "triangles", "recorded", "allowed",
            "measured", "ok");
     for (uint32_t n = 0; n < s.node_count && !rc; ++n) {
@@ -1493,7 +1493,7 @@ static int parse(int argc, char **argv, cli *c)
             rc = usage_error("too many arguments");
         }
     }
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     config_defaults(&c->config);
     if (!rc && c->config_path && (rc = config_load(&c->config, c->config_path, &err)) != 0)
         lp_say("%s", err.msg);
@@ -1506,7 +1506,7 @@ static int parse(int argc, char **argv, cli *c)
     if (!rc && (rc = config_check(&c->config, &err)) != 0) {
         const config_rule rule = config_broken_rule(&c->config, NULL);
         lp_config file_only;
-        lp_error ignored = {0, ""};
+        lp_error ignored = {0, "", 0};
         config_defaults(&file_only);
         const int file_alone = c->config_path && config_load(&file_only, c->config_path, &ignored) == 0 &&
                                config_breaks(&file_only, rule);

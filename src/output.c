@@ -132,7 +132,7 @@ int output_set_begin(output_set **out, lp_error *err)
 {
     assert(!g_set); /* one set at a time: the handler knows one */
     output_set *set = calloc(1, sizeof *set);
-    if (!set) return lp_fail(err, LP_INVALID, "out of memory");
+    if (!set) return lp_no_memory(err, "out of memory");
     g_set = set;
     stopsig_catch(remove_temps_and_die, &set->before);
     *out = set;
@@ -154,7 +154,7 @@ int output_stage(output_set *set, const char *target, const uint8_t *bytes, size
         if (temps) set->temps = temps;
         char(*targets)[4200] = temps ? realloc(set->targets, capacity * sizeof *targets) : NULL;
         if (targets) set->targets = targets, set->capacity = capacity;
-        else rc = lp_fail(err, LP_INVALID, "out of memory");
+        else rc = lp_no_memory(err, "out of memory");
     }
     if (!rc && (fd = mkstemp(temp)) < 0) rc = lp_fail(err, LP_IO, "cannot create a file beside %s (%s)", target, strerror(errno));
     if (!rc) {
@@ -210,7 +210,7 @@ int output_write_all(const char *main_path, const gltf_out_file *files, size_t c
     int rc = output_check_folder(main_path, err);
     if (rc) return rc;
     char (*targets)[4200] = calloc(count ? count : 1, sizeof *targets);
-    if (!targets) return lp_fail(err, LP_INVALID, "out of memory");
+    if (!targets) return lp_no_memory(err, "out of memory");
     for (size_t i = 0; i < count && !rc; ++i) {
         if (i == 0) snprintf(targets[i], sizeof targets[i], "%s", main_path);
         else snprintf(targets[i], sizeof targets[i], "%s/%s", base, files[i].name);

@@ -113,7 +113,7 @@ int scene_mesh_stretch(const scene *s, uint32_t node, double *stretch, lp_error 
     /* inverse bind matrices that cannot be read as float MAT4 (invalid, which
      * the loader keeps as it is) count as identities: the input's own error
      * does not stop the run */
-    lp_error unread = {0, ""};
+    lp_error unread = {0, "", 0};
     if (ibm_index && accessor_read_floats(s->doc, strtoll(ibm_index, NULL, 10), &ibm, &ibm_count, &components, &unread))
         ibm_count = 0;
     free(ibm_index);
@@ -123,11 +123,11 @@ int scene_mesh_stretch(const scene *s, uint32_t node, double *stretch, lp_error 
     jsonr r = {0};
     const int parsed = joints ? jsonr_parse(&r, joints, strlen(joints)) : -1;
     /* for want of memory the stretch would come out smaller, not fail */
-    if (parsed == -2 || gltf_out_of_memory(s->doc) || strstr(unread.msg, "out of memory")) {
+    if (parsed == -2 || gltf_out_of_memory(s->doc) || unread.out_of_memory) {
         if (parsed == 0) jsonr_free(&r);
         free(joints);
         free(ibm);
-        return lp_fail(err, LP_INVALID, "nodes[%u]: out of memory reading skins[%lld]", node, (long long)skin);
+        return lp_no_memory(err, "nodes[%u]: out of memory reading skins[%lld]", node, (long long)skin);
     }
     const uint32_t joint_count = parsed == 0 ? jsonr_size(&r, 0) : 0;
     for (uint32_t k = 0; k < joint_count; ++k) {
@@ -173,7 +173,7 @@ static int load_nodes(scene *s, lp_error *err)
     uint32_t *depth = calloc(n ? n : 1, sizeof *depth);
     int rc = LP_OK;
     if (!s->nodes || !stack || !depth) {
-        rc = lp_fail(err, LP_INVALID, "out of memory for %zu nodes", n);
+        rc = lp_no_memory(err, "out of memory for %zu nodes", n);
         goto done;
     }
     for (size_t i = 0; i < n; ++i) s->nodes[i].parent = -1;
@@ -333,7 +333,7 @@ static int triangulate(scene *s, scene_primitive *p, const uint32_t *idx, uint32
     }
     p->triangle_count = tris;
     p->triangles = malloc((tris ? (size_t)tris : 1) * 3 * sizeof *p->triangles);
-    if (!p->triangles) return lp_fail(err, LP_INVALID, "%s: out of memory", where);
+    if (!p->triangles) return lp_no_memory(err, "%s: out of memory", where);
     for (uint32_t t = 0; t < tris; ++t) {
         uint32_t *out = p->triangles + 3 * (size_t)t;
         if (p->mode == 4) {
@@ -389,7 +389,7 @@ static int load_primitive(scene *s, size_t mesh, size_t prim, scene_primitive *p
     }
     p->stream_count = (uint32_t)g.attribute_count;
     p->streams = calloc(g.attribute_count, sizeof *p->streams);
-    if (!p->streams) return lp_fail(err, LP_INVALID, "%s: out of memory", where);
+    if (!p->streams) return lp_no_memory(err, "%s: out of memory", where);
     for (size_t a = 0; a < g.attribute_count; ++a) {
         scene_stream *st = &p->streams[a];
         uint32_t count;
@@ -424,7 +424,7 @@ static int load_primitive(scene *s, size_t mesh, size_t prim, scene_primitive *p
     } else {
         n = p->vertex_count;
         idx = malloc((n ? n : 1) * sizeof *idx);
-        if (!idx) return lp_fail(err, LP_INVALID, "%s: out of memory", where);
+        if (!idx) return lp_no_memory(err, "%s: out of memory", where);
         for (uint32_t i = 0; i < n; ++i) idx[i] = i;
     }
     int rc = triangulate(s, p, idx, n, where, err);
@@ -663,16 +663,16 @@ static int load_meshes(scene *s, lp_error *err)
     const size_t n = gltf_count(s->doc, GLTF_MESHES);
     s->mesh_count = (uint32_t)n;
     s->meshes = calloc(n ? n : 1, sizeof *s->meshes);
-    if (!s->meshes) return lp_fail(err, LP_INVALID, "out of memory for %zu meshes", n);
+    if (!s->meshes) return lp_no_memory(err, "out of memory for %zu meshes", n);
     uint8_t *level_only = level_only_meshes(s, n);
-    if (!level_only) return lp_fail(err, LP_INVALID, "out of memory");
+    if (!level_only) return lp_no_memory(err, "out of memory");
     for (size_t m = 0; m < n; ++m) {
         scene_mesh *mesh = &s->meshes[m];
         mesh->name = gltf_name(s->doc, GLTF_MESHES, m);
         const size_t prims = gltf_primitive_count(s->doc, m);
         mesh->primitive_count = (uint32_t)prims;
         mesh->primitives = calloc(prims ? prims : 1, sizeof *mesh->primitives);
-        if (!mesh->primitives) return free(level_only), lp_fail(err, LP_INVALID, "out of memory");
+        if (!mesh->primitives) return free(level_only), lp_no_memory(err, "out of memory");
         for (size_t p = 0; p < prims; ++p) {
             int rc = load_primitive(s, m, p, &mesh->primitives[p], err);
             if (rc) return free(level_only), rc;
@@ -685,7 +685,7 @@ static int load_meshes(scene *s, lp_error *err)
         if (s->nodes[i].in_scene && s->nodes[i].mesh >= 0) s->meshes[s->nodes[i].mesh].instance_count++;
     for (uint32_t m = 0; m < s->mesh_count; ++m) {
         s->meshes[m].instances = calloc(s->meshes[m].instance_count + 1, sizeof(uint32_t));
-        if (!s->meshes[m].instances) return lp_fail(err, LP_INVALID, "out of memory");
+        if (!s->meshes[m].instances) return lp_no_memory(err, "out of memory");
         s->meshes[m].instance_count = 0;
     }
     for (uint32_t i = 0; i < s->node_count; ++i)

@@ -3659,11 +3659,11 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
     ranked *ranks = NULL;
     candidate *batch = NULL;
     int rc = LP_OK;
-    if (!s) return lp_fail(err, LP_INVALID, "out of memory");
+    if (!s) return lp_no_memory(err, "out of memory");
     ranks = malloc(((size_t)w->vertex_count + 1) * sizeof *ranks);
     batch = calloc(BATCH_SIZE, sizeof *batch);
     if (!ranks || !batch || sim_init(s, w, primitive_material, options)) {
-        rc = lp_fail(err, LP_INVALID, "out of memory for a mesh of %u triangles", w->triangle_count);
+        rc = lp_no_memory(err, "out of memory for a mesh of %u triangles", w->triangle_count);
         goto done;
     }
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -3700,11 +3700,11 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
         level_structures(s);
         if (s->eps > 0.0 && region_phase(s)) {
             if (s->verify_failed) rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);
-            else rc = lp_fail(err, LP_INVALID, "out of memory while simplifying");
+            else rc = lp_no_memory(err, "out of memory while simplifying");
             goto done;
         }
         if (s->eps > 0.0 && thin_ready(s)) {
-            rc = lp_fail(err, LP_INVALID, "out of memory");
+            rc = lp_no_memory(err, "out of memory");
             goto done;
         }
         if (k + 1 < options->level_count) thin_ahead_start(s, 2.0 * (options->fractions[k + 1] * out->diagonal));
@@ -3715,7 +3715,7 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
             level->stats.passes++;
             if (commits < 0) {
                 if (s->verify_failed) rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);
-                else rc = lp_fail(err, LP_INVALID, "out of memory while simplifying");
+                else rc = lp_no_memory(err, "out of memory while simplifying");
                 goto done;
             }
             if (commits == 0 && waiting == 0) {
@@ -3724,7 +3724,7 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
                 const long removed = removal_pass(s);
                 if (removed < 0) {
                     if (s->verify_failed) rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);
-                    else rc = lp_fail(err, LP_INVALID, "out of memory while simplifying");
+                    else rc = lp_no_memory(err, "out of memory while simplifying");
                     goto done;
                 }
                 if (removed > 0) continue;
@@ -3736,7 +3736,7 @@ int simplify_mesh(weld_result *w, const int64_t *primitive_material, const simpl
         }
         if (snapshot_level(s, level)) {
             if (s->verify_failed) rc = lp_fail(err, LP_PROMISE, "invariant broken: %s", s->verify_msg);
-            else rc = lp_fail(err, LP_INVALID, "out of memory");
+            else rc = lp_no_memory(err, "out of memory");
             goto done;
         }
         /* after the snapshot, so that the bounds it tightened are checked too */

@@ -14,8 +14,22 @@ int lp_fail(lp_error *err, int code, const char *fmt, ...)
         vsnprintf(err->msg, sizeof err->msg, fmt, ap);
         va_end(ap);
         err->code = code;
+        err->out_of_memory = 0;
     }
     return code;
+}
+
+int lp_no_memory(lp_error *err, const char *fmt, ...)
+{
+    if (err) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err->msg, sizeof err->msg, fmt, ap);
+        va_end(ap);
+        err->code = LP_INVALID;
+        err->out_of_memory = 1;
+    }
+    return LP_INVALID;
 }
 
 /* Copies text into out with its control characters escaped; stops before an

@@ -21,12 +21,19 @@ enum {
 typedef struct lp_error {
     int code;
     char msg[512];
+    int out_of_memory; /* the failure was memory running out (lp_no_memory) */
 } lp_error;
 
 /* Records code and a printf-style message; returns code, so callers can write
  * `return lp_fail(err, LP_INVALID, "accessors[%zu]: ...", i);`. */
 int lp_fail(lp_error *err, int code, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
+
+/* lp_fail for memory running out: LP_INVALID (exit 2, as the README's table
+ * says), the message (which says "out of memory") and out_of_memory set, so
+ * that a caller that goes on after a failure it tolerates can still tell
+ * this one apart and stop. */
+int lp_no_memory(lp_error *err, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
 /* Formats one message line into out (at most cap - 1 bytes, always
  * terminated, no newline added), showing every control character of the

@@ -109,7 +109,7 @@ static void work_free(weld_work *k)
 
 static int out_of_memory(weld_work *k, lp_error *err)
 {
-    return lp_fail(err, LP_INVALID, "mesh \"%s\": out of memory while welding", k->name);
+    return lp_no_memory(err, "mesh \"%s\": out of memory while welding", k->name);
 }
 
 /* ---- steps ------------------------------------------------------------------ */

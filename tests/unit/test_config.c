@@ -90,7 +90,7 @@ static void test_repo_file_equals_defaults(void)
     char path[1024];
     repo_path(path, sizeof path, "pipeline.toml");
     lp_config d, c;
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     config_defaults(&d);
     /* Start from something else, so every key must come from the file. */
     config_defaults(&c);
@@ -407,7 +407,7 @@ static void test_file_errors(void)
 static void test_missing_file(void)
 {
     lp_config c, d;
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     config_defaults(&c);
     config_defaults(&d);
     int rc = config_load(&c, "/nonexistent/dir/pipeline.toml", &err);
@@ -444,7 +444,7 @@ static void test_failed_load_keeps_previous_values(void)
 static void test_flags(void)
 {
     lp_config c;
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     config_defaults(&c);
     CHECK(config_flag("--levels") == 1 && config_flag("--pixel-error") == 1 &&
               config_flag("--viewport-height") == 1 && config_flag("--fov-y") == 1 &&
@@ -561,7 +561,7 @@ static void test_flag_errors(void)
     for (size_t i = 0; i < sizeof kFlagErrors / sizeof kFlagErrors[0]; ++i) {
         const flag_error *t = &kFlagErrors[i];
         lp_config c, d;
-        lp_error err = {0, ""};
+        lp_error err = {0, "", 0};
         config_defaults(&c);
         config_defaults(&d);
         int rc = config_set(&c, t->name, t->text, &err);
@@ -576,7 +576,7 @@ static void test_flag_errors(void)
 static void test_config_check(void)
 {
     lp_config c;
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     config_defaults(&c);
     CHECK(config_check(&c, &err) == LP_OK, "the defaults pass: %s", err.msg);
     CHECK(config_set(&c, "--optimal-levels", "3,4", &err) == LP_OK, "set");

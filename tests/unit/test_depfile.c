@@ -9,7 +9,7 @@
 
 static void expect(const char *target, const char *const *deps, size_t count, const char *want)
 {
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     char *text = depfile_text(target, deps, count, &err);
     CHECK(text && strcmp(text, want) == 0, "got [%s], want [%s]", text ? text : "(null)", want);
     free(text);
@@ -37,7 +37,7 @@ static void colons(void)
 
 static void trailing_backslash_refused(void)
 {
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     const char *deps[] = {"in.glb", "tex\\"};
     CHECK(depfile_text("out.glb", deps, 2, &err) == NULL, "a dependency ending in a backslash is refused");
     CHECK(err.code == LP_USAGE && strstr(err.msg, "ending in a backslash"), "message: %s", err.msg);
@@ -46,7 +46,7 @@ static void trailing_backslash_refused(void)
 
 static void line_breaks_refused(void)
 {
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     const char *deps[] = {"a\nb.bin"};
     CHECK(depfile_text("out.glb", deps, 1, &err) == NULL, "a newline in a dependency is refused");
     CHECK(err.code == LP_USAGE && strstr(err.msg, "line break"), "message: %s", err.msg);

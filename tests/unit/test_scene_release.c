@@ -25,7 +25,7 @@ static const char TRIANGLE_GLTF[] =
 
 static int load_triangle(scene *s)
 {
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     int rc = scene_load_memory(TRIANGLE_GLTF, sizeof TRIANGLE_GLTF - 1, "triangle.gltf", NULL, s, &err);
     CHECK(rc == LP_OK, "load: %s", err.msg);
     return rc;
@@ -76,7 +76,7 @@ static int load_triangle_and_skipped(scene *s)
     if (!view || !count) return 1;
     view[strlen("\"byteOffset\":36,\"byteLength\":")] = '8';
     count[strlen("\"count\":")] = '4';
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     int rc = scene_load_memory(text, strlen(text), "triangle.gltf", NULL, s, &err);
     CHECK(rc == LP_OK, "load: %s", err.msg);
     return rc;
@@ -96,7 +96,7 @@ static void test_reload_mesh_data(void)
     memcpy(positions, p->positions, sizeof positions);
     memcpy(triangles, p->triangles, sizeof triangles);
     scene_release_mesh_data(&s, 0);
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     CHECK(scene_reload_mesh_data(&s, 0, &err) == LP_OK, "reload: %s", err.msg);
     CHECK(p->vertex_count == 3 && p->triangle_count == 1 && p->stream_count == 1 && p->positions && p->triangles,
           "one triangle again: %u vertices, %u triangles", p->vertex_count, p->triangle_count);
