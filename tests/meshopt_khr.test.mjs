@@ -226,6 +226,29 @@ test('KHR_meshopt_compression input', { skip }, async (t) => {
     assertRefused(f, dir, /bufferViews\[0\] has both EXT_meshopt_compression and KHR_meshopt_compression/, ['both.glb']);
   });
 
+  // A stream this build cannot decode is held to the specification's mode, filter and stride all the
+  // same: its fallback stands in for a codec, not for a check (before, neither was looked at).
+  await t.test('optional, version-1 stream with an unknown filter -> exit 2 naming it; the fallback is not used', async (st) => {
+    const dir = tempDir(st);
+    const box = await writeKhrBox(dir, { v1: true, required: false });
+    const { json, bin } = parseGlb(fs.readFileSync(box.file));
+    json.bufferViews[1].extensions[KHR].filter = 'WAVELET';
+    writeGlb(box.file, json, bin);
+    assertRefused(box.file, dir, /bufferViews\[1\]: unknown meshopt filter "WAVELET"/, ['box.glb', 'plain.glb', 'box.fallback.bin']);
+  });
+
+  await t.test('optional, COLOR filter with byteStride 12 -> exit 2 naming the stride; the fallback is not used', async (st) => {
+    const dir = tempDir(st);
+    const box = await writeKhrBox(dir, { color: true, required: false });
+    const { json, bin } = parseGlb(fs.readFileSync(box.file));
+    const m = json.bufferViews[3].extensions[KHR];
+    assert.equal((m.count * 4) % 12, 0, 'test premise: the same bytes as 12-byte elements');
+    m.count = (m.count * 4) / 12;
+    m.byteStride = 12;
+    writeGlb(box.file, json, bin);
+    assertRefused(box.file, dir, /bufferViews\[3\]: COLOR filter needs byteStride 4 or 8/, ['box.glb', 'plain.glb', 'box.fallback.bin']);
+  });
+
   await t.test('optional, version-1 stream, fallback buffer without data -> exit 2', async (st) => {
     const dir = tempDir(st);
     const box = await writeKhrBox(dir, { v1: true, required: false, fallback: 'none' });

@@ -1207,6 +1207,21 @@ std::string decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view, const char
     if (length > kMeshoptMaxExpansion * uint64_t(in_len) + 4096)
         fail(GLTF_INVALID, path + ": meshopt declares " + std::to_string(length) + " decoded bytes from " +
                                std::to_string(in_len) + " compressed bytes (no stream expands that much)");
+    // The mode, filter and stride are checked before anything is decoded: a stream this
+    // build cannot decode (its fallback data used instead) is held to them too.
+    if (mode == "ATTRIBUTES") {
+        if (stride % 4 || stride > 256) fail(GLTF_INVALID, path + ": meshopt ATTRIBUTES byteStride must be a multiple of 4 up to 256");
+        if (filter == "OCTAHEDRAL" && stride != 4 && stride != 8) fail(GLTF_INVALID, path + ": OCTAHEDRAL filter needs byteStride 4 or 8");
+        if (filter == "QUATERNION" && stride != 8) fail(GLTF_INVALID, path + ": QUATERNION filter needs byteStride 8");
+        if (khr && filter == "COLOR" && stride != 4 && stride != 8) fail(GLTF_INVALID, path + ": COLOR filter needs byteStride 4 or 8");
+        if (filter != "NONE" && filter != "OCTAHEDRAL" && filter != "QUATERNION" && filter != "EXPONENTIAL" && !(khr && filter == "COLOR"))
+            fail(GLTF_INVALID, path + ": unknown meshopt filter " + quoted(filter));
+    } else if (mode == "TRIANGLES" || mode == "INDICES") {
+        if (stride != 2 && stride != 4) fail(GLTF_INVALID, path + ": meshopt index byteStride must be 2 or 4");
+        if (mode == "TRIANGLES" && count % 3) fail(GLTF_INVALID, path + ": meshopt TRIANGLES count is not a multiple of 3");
+    } else {
+        fail(GLTF_INVALID, path + ": unknown meshopt mode " + quoted(mode));
+    }
     // KHR's colour filter came after libmeshoptimizer 0.18, which has no decoder for it
     if (khr && mode == "ATTRIBUTES" && filter == "COLOR")
         return "the COLOR filter (libmeshoptimizer " + meshopt_library_version() + " has no decoder for it)";
@@ -1214,7 +1229,6 @@ std::string decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view, const char
     out.owned.assign(size_t(length), 0);
     int rc = -1;
     if (mode == "ATTRIBUTES") {
-        if (stride % 4 || stride > 256) fail(GLTF_INVALID, path + ": meshopt ATTRIBUTES byteStride must be a multiple of 4 up to 256");
         rc = meshopt_decodeVertexBuffer(out.owned.data(), size_t(count), size_t(stride), in, in_len);
         // KHR allows version-1 streams (header 0xa1), which a library before 0.23 refuses
         // like a corrupt one; a newer library decodes them here
@@ -1222,27 +1236,13 @@ std::string decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view, const char
             std::vector<uint8_t>().swap(out.owned);
             return "a version-1 attribute stream (libmeshoptimizer " + meshopt_library_version() + " decodes version 0 only)";
         }
-        if (rc == 0 && filter == "OCTAHEDRAL") {
-            if (stride != 4 && stride != 8) fail(GLTF_INVALID, path + ": OCTAHEDRAL filter needs byteStride 4 or 8");
-            meshopt_decodeFilterOct(out.owned.data(), size_t(count), size_t(stride));
-        } else if (rc == 0 && filter == "QUATERNION") {
-            if (stride != 8) fail(GLTF_INVALID, path + ": QUATERNION filter needs byteStride 8");
-            meshopt_decodeFilterQuat(out.owned.data(), size_t(count), size_t(stride));
-        } else if (rc == 0 && filter == "EXPONENTIAL") {
-            meshopt_decodeFilterExp(out.owned.data(), size_t(count), size_t(stride));
-        } else if (rc == 0 && filter != "NONE") {
-            fail(GLTF_INVALID, path + ": unknown meshopt filter " + quoted(filter));
-        }
-    } else if (mode == "TRIANGLES" || mode == "INDICES") {
-        if (stride != 2 && stride != 4) fail(GLTF_INVALID, path + ": meshopt index byteStride must be 2 or 4");
-        if (mode == "TRIANGLES") {
-            if (count % 3) fail(GLTF_INVALID, path + ": meshopt TRIANGLES count is not a multiple of 3");
-            rc = meshopt_decodeIndexBuffer(out.owned.data(), size_t(count), size_t(stride), in, in_len);
-        } else {
-            rc = meshopt_decodeIndexSequence(out.owned.data(), size_t(count), size_t(stride), in, in_len);
-        }
+        if (rc == 0 && filter == "OCTAHEDRAL") meshopt_decodeFilterOct(out.owned.data(), size_t(count), size_t(stride));
+        else if (rc == 0 && filter == "QUATERNION") meshopt_decodeFilterQuat(out.owned.data(), size_t(count), size_t(stride));
+        else if (rc == 0 && filter == "EXPONENTIAL") meshopt_decodeFilterExp(out.owned.data(), size_t(count), size_t(stride));
+    } else if (mode == "TRIANGLES") {
+        rc = meshopt_decodeIndexBuffer(out.owned.data(), size_t(count), size_t(stride), in, in_len);
     } else {
-        fail(GLTF_INVALID, path + ": unknown meshopt mode " + quoted(mode));
+        rc = meshopt_decodeIndexSequence(out.owned.data(), size_t(count), size_t(stride), in, in_len);
     }
     if (rc != 0) fail(GLTF_INVALID, path + ": " + name + " data does not decode (corrupt stream)");
     out.ptr = out.owned.data();
