@@ -515,6 +515,30 @@ test('malformed containers and buffers: one line in lodpipe\'s words, from every
       assertRefusedByEveryCommand(st, f, 2, new RegExp(needle));
     }
   });
+
+  // The extension's rules on mode, filter and stride (EXT_meshopt_compression, "for the extension object
+  // to be valid"): the filter of index data and the view's own byteStride were not looked at before (a
+  // view whose accessors read the decoded bytes at another stride than the stream's was decoded anyway).
+  await t.test('EXT_meshopt_compression against its filter and stride rules -> exit 2 naming the bufferView', (st) => {
+    const { json, bin } = parseGlb(fs.readFileSync(corpusPath('compressed/BoxMeshopt.glb')));
+    const ext = (j, mode) => j.bufferViews.findIndex((x) => x.extensions?.EXT_meshopt_compression?.mode === mode);
+    const attributes = ext(json, 'ATTRIBUTES'), triangles = ext(json, 'TRIANGLES');
+    assert.ok(attributes >= 0 && triangles >= 0, 'test premise: BoxMeshopt has attribute and triangle streams');
+    const stride = json.bufferViews[attributes].extensions.EXT_meshopt_compression.byteStride;
+    for (const [name, edit, needle] of [
+      ['index_filter.glb', (j) => { j.bufferViews[triangles].extensions.EXT_meshopt_compression.filter = 'OCTAHEDRAL'; },
+        `bufferViews\\[${triangles}\\]: meshopt TRIANGLES data cannot have a filter \\("OCTAHEDRAL"\\)`],
+      ['view_stride.glb', (j) => { j.bufferViews[attributes].byteStride = stride + 4; },
+        `bufferViews\\[${attributes}\\]: byteStride ${stride + 4} differs from its meshopt byteStride ${stride}`],
+      ['unknown_filter.glb', (j) => { j.bufferViews[attributes].extensions.EXT_meshopt_compression.filter = 'COLOR'; },
+        `bufferViews\\[${attributes}\\]: unknown meshopt filter "COLOR"`]]) {
+      const j = JSON.parse(JSON.stringify(json));
+      edit(j);
+      const f = path.join(dir, name);
+      writeGlb(f, j, Buffer.from(bin));
+      assertRefusedByEveryCommand(st, f, 2, new RegExp(needle));
+    }
+  });
 });
 
 // ---------------------------------------------------------------------------------------------

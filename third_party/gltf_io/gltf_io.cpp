@@ -1219,9 +1219,14 @@ std::string decode_meshopt_view(gltf_doc *doc, size_t v, ojson &view, const char
     } else if (mode == "TRIANGLES" || mode == "INDICES") {
         if (stride != 2 && stride != 4) fail(GLTF_INVALID, path + ": meshopt index byteStride must be 2 or 4");
         if (mode == "TRIANGLES" && count % 3) fail(GLTF_INVALID, path + ": meshopt TRIANGLES count is not a multiple of 3");
+        if (filter != "NONE") fail(GLTF_INVALID, path + ": meshopt " + mode + " data cannot have a filter (" + quoted(filter) + ")");
     } else {
         fail(GLTF_INVALID, path + ": unknown meshopt mode " + quoted(mode));
     }
+    // the accessors read the decoded bytes with the view's stride
+    if (view.contains("byteStride") && u64(view, "byteStride", 0) != stride)
+        fail(GLTF_INVALID, path + ": byteStride " + std::to_string(u64(view, "byteStride", 0)) +
+                               " differs from its meshopt byteStride " + std::to_string(stride));
     // KHR's colour filter came after libmeshoptimizer 0.18, which has no decoder for it
     if (khr && mode == "ATTRIBUTES" && filter == "COLOR")
         return "the COLOR filter (libmeshoptimizer " + meshopt_library_version() + " has no decoder for it)";
