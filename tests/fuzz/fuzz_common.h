@@ -29,7 +29,7 @@ static inline int fuzz_load(const uint8_t *data, size_t size, scene *s)
     scene_options opt;
     memset(&opt, 0, sizeof opt);
     opt.load.max_file_bytes = FUZZ_MAX_INPUT_BYTES;
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     return scene_load_memory(data, size, fuzz_input_name(data, size), &opt, s, &err);
 }
 

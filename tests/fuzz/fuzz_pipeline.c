@@ -52,7 +52,7 @@ static void check_levels(const scene *s, uint32_t m, const weld_result *w, const
     float *p0 = NULL, *p1 = NULL;
     uint32_t *t0 = NULL, *t1 = NULL;
     measure_mesh original, level;
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     const double diagonal = s->meshes[m].diagonal;
     if (lodchain_mesh_triangles(s, m, NULL, NULL, -1, &p0, &t0, &original, &err) == LP_OK)
         for (uint32_t k = 0; k < sum->level_count; ++k) {
@@ -102,7 +102,7 @@ static void mesh_data_digest(const scene *s, uint32_t m, uint8_t digest[SHA256_B
 static int run_mesh(scene *s, uint32_t m, const simplify_options *opt, const lodchain_options *chain)
 {
     const scene_mesh *mesh = &s->meshes[m];
-    lp_error err = {0, ""};
+    lp_error err = {0, "", 0};
     weld_result w;
     if (weld_build(mesh, 1, &w, &err) != LP_OK) return 1;
     uint8_t loaded[SHA256_BYTES], reloaded[SHA256_BYTES];
