@@ -6,29 +6,30 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* Fills err (when not NULL), for lp_fail and lp_no_memory. */
+static void record(lp_error *err, int code, int out_of_memory, const char *fmt, va_list ap)
+{
+    if (!err) return;
+    vsnprintf(err->msg, sizeof err->msg, fmt, ap);
+    err->code = code;
+    err->out_of_memory = out_of_memory;
+}
+
 int lp_fail(lp_error *err, int code, const char *fmt, ...)
 {
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err->msg, sizeof err->msg, fmt, ap);
-        va_end(ap);
-        err->code = code;
-        err->out_of_memory = 0;
-    }
+    va_list ap;
+    va_start(ap, fmt);
+    record(err, code, 0, fmt, ap);
+    va_end(ap);
     return code;
 }
 
 int lp_no_memory(lp_error *err, const char *fmt, ...)
 {
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err->msg, sizeof err->msg, fmt, ap);
-        va_end(ap);
-        err->code = LP_INVALID;
-        err->out_of_memory = 1;
-    }
+    va_list ap;
+    va_start(ap, fmt);
+    record(err, LP_INVALID, 1, fmt, ap);
+    va_end(ap);
     return LP_INVALID;
 }
 
