@@ -47,8 +47,15 @@ function snapshot(dir) {
  * .bin for a failed fopen in tinygltf's file test; a --json report that left out an output's name).
  */
 const PROBE_ENDS = 16;
-// LODPIPE_OOM_EVERY=1: fail every allocation of every case (a deeper sweep by hand; hours, not for CI)
+// LODPIPE_OOM_EVERY=1: fail every allocation of every case (a deeper sweep by hand; hours, not for CI).
+// LODPIPE_OOM_SHARD=K/N: only every N-th of the probes, from the K-th (0-based), so that N processes
+// share a sweep by hand between cores.
 const EVERY = process.env.LODPIPE_OOM_EVERY === '1';
+const SHARD = (() => {
+  const m = /^(\d+)\/(\d+)$/.exec(process.env.LODPIPE_OOM_SHARD || '0/1');
+  if (!m || Number(m[1]) >= Number(m[2])) throw new Error(`LODPIPE_OOM_SHARD=${process.env.LODPIPE_OOM_SHARD}: want K/N, K < N`);
+  return { k: Number(m[1]), n: Number(m[2]) };
+})();
 function probes(total, step) {
   if (EVERY) step = 1;
   const set = new Set();
@@ -57,7 +64,7 @@ function probes(total, step) {
     if (1 + k <= total) set.add(1 + k);
     if (total - k >= 1) set.add(total - k);
   }
-  return [...set].sort((a, b) => a - b);
+  return [...set].sort((a, b) => a - b).filter((_, i) => i % SHARD.n === SHARD.k);
 }
 
 /**
@@ -171,7 +178,7 @@ function sweepBatch(t, bin, runs, asan) {
   const step = Math.max(1, Math.ceil(total / runs));
   const tally = { total, step, runs: 0, same: 0, refused: 0, failedFiles: 0 };
   const problems = [];
-  for (let n = 1; n <= total; n += step) {
+  for (const n of probes(total, step)) {
     const dir = path.join(root, `run${n}`);
     const r = runLodpipe(args(dir), { bin, env: env({ FAIL_AT: String(n) }), timeout: 120000 });
     tally.runs++;
