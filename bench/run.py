@@ -465,6 +465,16 @@ def speed(tools, args, have_lodpipe):
             ", at lodpipe's counts %.3f s" % rnd["meshopt"]["by_count"] if "by_count" in rnd["meshopt"] else ""))
         res["rounds"].append(rnd)
     res["loadavg_after"] = open("/proc/loadavg").read().strip()
+    if have_lodpipe and res["rounds"] and not args.no_verify:
+        # the timed levels are what the ratio is for: each is checked within its own certified bound
+        # (which lodpipe reports <= eps), after the timing so that the check's CPU does not disturb it
+        res["verify"] = []
+        for lv in L["levels"]:
+            b = lv["bound_pct"]
+            w = tools.within(big + "#mesh=0", lv["obj"], b / 100) if b is not None else {"within": False}
+            res["verify"].append({"level": lv["level"], "pct": lv["pct"], "bound_pct": b, **w})
+            log("speed: level %d (%s %%) within its certified bound %s %%: %s" % (
+                lv["level"], fmt_pct(lv["pct"]), b, "undecided" if w.get("undecided") else w["within"]))
     return res
 
 
@@ -784,6 +794,19 @@ def report(results, args):
                                                        [pctf(b) for b in R[0]["lodpipe"]["bound_pct"]]))
             if results["have_lodpipe"] else ""))
         w("")
+        if sp.get("verify"):
+            V = sp["verify"]
+            proven = sum(1 for v in V if v["within"])
+            w("Independent check of the last round's levels against the %s-triangle original (`hausdorff --within "
+              "BOUND`, BOUND = the level's certified bound as a fraction of the diagonal): **%d of %d proven within "
+              "their certified bound**%s." % (n(T), proven, len(V), "".join(
+                  "; level %d (%s %%): %s, measured [%s, %s] %% of the diagonal, %.0f s" % (
+                      v["level"], fmt_pct(v["pct"]),
+                      "undecided" if v.get("undecided") else "within" if v["within"] else "**NOT within**",
+                      pctf(100 * v["lower_rel"], 6) if v.get("lower_rel") is not None else "?",
+                      pctf(100 * v["upper_rel"], 6) if v.get("upper_rel") is not None else "?",
+                      v.get("seconds") or 0) for v in V)))
+            w("")
         if results["have_lodpipe"]:
             lw = med([r["lodpipe"]["wall"] for r in R])
             ls = med([sum(x or 0 for x in r["lodpipe"]["level_seconds"]) for r in R])
