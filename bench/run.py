@@ -19,7 +19,9 @@ Quality (issue 3, "Must show" 2), per model (bunny, fandisk, rocker-arm, igea):
     (target_error = eps, target count 0) with its measured distance.
 Speed and memory (issue 3, "Must show" 3): a 1.1M-triangle bunny (make_big.py, 2 rounds); per
 round, lodpipe's whole 1/3/7/15 % chain (one process, wall clock, user CPU, peak RSS from wait4)
-then meshopt_peer's chain (by error and at lodpipe's achieved counts); 3 rounds, medians.
+then meshopt_peer's chain (by error and at lodpipe's achieved counts); 3 rounds, medians. After
+the rounds, the last round's four lodpipe levels are checked (hausdorff --within) within their
+own certified bounds against the original.
 
 usage: python3 bench/run.py [--models bunny,fandisk,...] [--skip-quality] [--skip-speed]
                             [--lodpipe PATH] [--tol 0.01] [--reps 3]
