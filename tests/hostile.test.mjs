@@ -473,6 +473,32 @@ test('malformed containers and buffers: one line in lodpipe\'s words, from every
     assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
   });
 
+  // GLB pads each chunk to 4 bytes. A JSON chunk without its padding (the validator's GLB_CHUNK_LENGTH_UNALIGNED;
+  // tinygltf and engines read it) holds the whole document, so it is read, not refused: the output is padded like any
+  // other, byte for byte the output of the padded file, and has no validator error.
+  await t.test('a GLB whose JSON chunk is not padded to 4 bytes is read; its output is the padded file\'s', async (st) => {
+    const duck = new Uint8Array(fs.readFileSync(corpusPath('scenes/Duck.glb')));
+    const { json, bin } = parseGlb(duck);
+    const text = Buffer.from(JSON.stringify(json), 'utf8');
+    const bare = text.length % 4 ? text : Buffer.concat([text, Buffer.from(' ')]);
+    const sub = tempDir(st);
+    const padded = path.join(sub, 'padded.glb'), unaligned = path.join(sub, 'unaligned.glb');
+    writeGlbChunks(padded, [[CHUNK_JSON, jsonChunk(json)], [CHUNK_BIN, Buffer.from(bin)]]);
+    writeGlbChunks(unaligned, [[CHUNK_JSON, bare], [CHUNK_BIN, Buffer.from(bin)]]);
+    const report = await validateFileCached(unaligned);
+    assert.ok(report.errorCodes.GLB_CHUNK_LENGTH_UNALIGNED, `the input is what the validator calls unaligned: ${JSON.stringify(report.errorCodes)}`);
+    const outs = [];
+    for (const f of [padded, unaligned]) {
+      const out = path.join(sub, `out_${path.basename(f)}`);
+      const r = runLodpipe([f, '-o', out]);
+      assert.deepEqual(mainJobProblems(r, out), [], describeRun(r));
+      outs.push(fs.readFileSync(out));
+    }
+    assert.ok(outs[1].equals(outs[0]), 'the unaligned file\'s output differs from the padded one\'s');
+    const outReport = await validateFileCached(path.join(sub, 'out_unaligned.glb'));
+    assert.deepEqual(Object.keys(outReport.errorCodes), [], 'the output has validator errors');
+  });
+
   // A uri was quoted whole: a 5,000-character data: uri (by tinygltf) or file name filled the terminal. A string
   // of the file is shown up to its 60th byte, then "..."; an image's bad data: uri is the loader's error too.
   await t.test('a long uri is quoted up to 60 bytes; a bad image data: uri -> exit 2 in lodpipe\'s words', (st) => {
