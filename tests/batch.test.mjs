@@ -393,7 +393,7 @@ async function stoppedBatch(t, signal, { prefix = [], more = 0 } = {}) {
   const exited = new Promise((resolve) => child.on('exit', (code, sig) => resolve({ code, signal: sig })));
   // a.glb appears when its job renames it, a moment before the job ends and the batch records it: wait
   // for b.glb's job, which the batch starts only then (a stop in between rebuilt a.glb on the next run)
-  const bJob = () => spawnSync('pgrep', ['-f', path.join(src, 'b.glb')], { encoding: 'utf8' }).stdout.trim() !== '';
+  const bJob = () => processesMatching(path.join(src, 'b.glb')) !== '';
   const deadline = Date.now() + 300000;
   while (!(fs.existsSync(path.join(out, 'a.glb')) && bJob()) && Date.now() < deadline) await new Promise((r) => setTimeout(r, 50));
   assert.ok(fs.existsSync(path.join(out, 'a.glb')), 'the first file was built');
@@ -407,8 +407,7 @@ async function stoppedBatch(t, signal, { prefix = [], more = 0 } = {}) {
 test('a batch stopped by SIGTERM stops its job, leaves no temp files, keeps what was built', { skip }, async (t) => {
   const { src, out, end } = await stoppedBatch(t, 'SIGTERM', { more: 1 });
   assert.equal(end.signal, 'SIGTERM', `the batch ends by the signal (exit ${end.code})`);
-  const jobs = spawnSync('pgrep', ['-f', src], { encoding: 'utf8' });
-  assert.equal(jobs.stdout.trim(), '', 'no job process left');
+  assert.equal(processesMatching(src), '', 'no job process left');
   const left = fs.readdirSync(out).filter((f) => f.startsWith('.lodpipe-batch-') || /\.lodpipe-[A-Za-z0-9]{6}$/.test(f));
   assert.deepEqual(left, [], 'no temporary file left');
   const again = batch(src, out);
@@ -423,9 +422,18 @@ test('a batch whose parent ignores SIGTERM still stops its running job (SIGINT)'
   assert.ok(!fs.existsSync(path.join(out, 'b.glb')), 'the running job was stopped, not left to finish b.glb');
 });
 
+/** The pids of the processes whose command line contains `text` (pgrep -f), one a line; '' when none.
+ * Throws when pgrep cannot run (make deps installs procps), rather than read that as "none". */
+function processesMatching(text) {
+  const r = spawnSync('pgrep', ['-f', text], { encoding: 'utf8' });
+  if (r.error) throw new Error(`pgrep -f: ${r.error.message} (make deps installs procps)`);
+  if (r.status !== 0 && r.status !== 1) throw new Error(`pgrep -f exited ${r.status}: ${r.stderr.trim()}`);
+  return r.stdout.trim();
+}
+
 /** Resolves when a process whose command line contains `text` runs (pgrep -f), or after 60 s. */
 async function processAppears(text) {
-  const running = () => spawnSync('pgrep', ['-f', text], { encoding: 'utf8' }).stdout.trim() !== '';
+  const running = () => processesMatching(text) !== '';
   const deadline = Date.now() + 60000;
   while (!running() && Date.now() < deadline) await new Promise((r) => setTimeout(r, 20));
   return running;
