@@ -28,6 +28,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <atomic>
 #include <cmath>
 #include <cstdarg>
@@ -1114,15 +1115,52 @@ bool external_file_exists(const std::string &path, void *)
     return true;
 }
 
-// tinygltf's file system, with read_external_file as its reader.
-const tinygltf::FsCallbacks kFileSystem = {&external_file_exists, &tinygltf::ExpandFilePath, &read_external_file,
-                                           &tinygltf::WriteWholeFile, nullptr};
+// tinygltf's size of a referenced file, without allocating but for an error
+// text (tinygltf 2.8 and later ask for it before reading, to refuse a file
+// over their limit).
+bool external_file_size(size_t *size, std::string *err, const std::string &path, void *)
+{
+    struct stat st;
+    if (stat(path.c_str(), &st) != 0) {
+        if (err) *err = std::strerror(errno);
+        return false;
+    }
+    *size = size_t(st.st_size);
+    return true;
+}
+
+// Fills the size callback where this tinygltf has one (2.8 and later; Debian
+// 12 has 2.7, Debian 13 2.9), and does nothing where it has none.
+template <typename Fs>
+auto set_file_size_callback(Fs &fs, int) -> decltype(void(fs.GetFileSizeInBytes = &external_file_size))
+{
+    fs.GetFileSizeInBytes = &external_file_size;
+}
+template <typename Fs>
+void set_file_size_callback(Fs &, long)
+{
+}
+
+// tinygltf's file system, with read_external_file as its reader. Members are
+// set by name: tinygltf has added members between versions, and 2.9 ignores
+// the whole set (keeping its own reader) when one of them is null.
+tinygltf::FsCallbacks file_system()
+{
+    tinygltf::FsCallbacks fs{};
+    fs.FileExists = &external_file_exists;
+    fs.ExpandFilePath = &tinygltf::ExpandFilePath;
+    fs.ReadWholeFile = &read_external_file;
+    fs.WriteWholeFile = &tinygltf::WriteWholeFile;
+    fs.user_data = nullptr;
+    set_file_size_callback(fs, 0);
+    return fs;
+}
 
 void load_with_tinygltf(gltf_doc *doc, const ojson &root, bool glb, const uint8_t *bin, size_t bin_size)
 {
     tinygltf::TinyGLTF loader;
     loader.SetImageLoader(load_image_as_is, nullptr);
-    loader.SetFsCallbacks(kFileSystem);
+    loader.SetFsCallbacks(file_system());
     std::string err, warn;
     const std::string text = json_for_tinygltf(root, doc->dir).dump();
     bool ok;
@@ -1274,7 +1312,7 @@ void load_fallback_buffers(gltf_doc *doc, const std::vector<size_t> &wanted, con
         reduced["buffers"].push_back(one);
     }
     tinygltf::TinyGLTF loader;
-    loader.SetFsCallbacks(kFileSystem);
+    loader.SetFsCallbacks(file_system());
     tinygltf::Model model;
     std::string err, warn;
     const std::string text = reduced.dump();
