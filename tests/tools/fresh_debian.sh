@@ -2,9 +2,10 @@
 # fresh_debian.sh - checks the README's promise that its two commands do everything on a
 # fresh Debian machine, where the usual machines here already have most of what they install.
 #
-# It makes a minimal Debian 12 root (debootstrap --variant=minbase: no compiler, no node, no
-# make), puts a clone of this repository's HEAD at /work/main in it and a read-only copy of
-# ../shared beside it, as CI lays them, and runs inside it (chroot):
+# It makes a minimal Debian root (debootstrap --variant=minbase: no compiler, no node, no
+# make; Debian 12 "bookworm" unless --suite names another, e.g. trixie), puts a clone of this
+# repository's HEAD at /work/main in it and a read-only copy of ../shared beside it, as CI
+# lays them, and runs inside it (chroot):
 #   apt-get install make      (the one thing a minimal system lacks to start)
 #   make run                  (the README's first command)
 #   CI=true bash .ci/run      (the second, as CI calls it; skipped with --run-only)
@@ -15,18 +16,22 @@
 # the host trusts is trusted inside too. About 5 minutes with --run-only, 40 with the tests,
 # on 2 cores. Not part of `make test`: it installs a system.
 #
-# usage: tests/tools/fresh_debian.sh [--run-only] [DIR]   (DIR: a new folder, default
-#        /var/tmp/lodpipe-fresh-debian; it is left for inspection, its mounts undone)
+# usage: tests/tools/fresh_debian.sh [--run-only] [--suite NAME] [DIR]
+#        DIR: a new folder, default /var/tmp/lodpipe-fresh-debian; it is left for inspection,
+#        its mounts undone; each step's log is DIR.STEP.log beside it
 set -euo pipefail
 
 run_only=0
+suite=bookworm
 dir=/var/tmp/lodpipe-fresh-debian
-for a in "$@"; do
-  case "$a" in
+while [ $# -gt 0 ]; do
+  case "$1" in
     --run-only) run_only=1 ;;
-    -*) echo "fresh_debian.sh: unknown option $a" >&2; exit 1 ;;
-    *) dir=$a ;;
+    --suite) [ $# -gt 1 ] || { echo "fresh_debian.sh: --suite needs a name" >&2; exit 1; }; suite=$2; shift ;;
+    -*) echo "fresh_debian.sh: unknown option $1" >&2; exit 1 ;;
+    *) dir=$1 ;;
   esac
+  shift
 done
 
 repo=$(cd "$(dirname "$0")/../.." && pwd)
@@ -42,13 +47,13 @@ undo_mounts() {
 }
 trap undo_mounts EXIT
 
-echo "== debootstrap bookworm (minbase) into $dir"
-debootstrap --variant=minbase bookworm "$dir" http://deb.debian.org/debian >"$dir.debootstrap.log" 2>&1 \
+echo "== debootstrap $suite (minbase) into $dir"
+debootstrap --variant=minbase "$suite" "$dir" http://deb.debian.org/debian >"$dir.debootstrap.log" 2>&1 \
   || { echo "fresh_debian.sh: debootstrap failed, see $dir.debootstrap.log" >&2; exit 1; }
-cat >"$dir/etc/apt/sources.list" <<'EOF'
-deb http://deb.debian.org/debian bookworm main
-deb http://deb.debian.org/debian bookworm-updates main
-deb http://deb.debian.org/debian-security bookworm-security main
+cat >"$dir/etc/apt/sources.list" <<EOF
+deb http://deb.debian.org/debian $suite main
+deb http://deb.debian.org/debian $suite-updates main
+deb http://deb.debian.org/debian-security $suite-security main
 EOF
 cp /etc/resolv.conf "$dir/etc/resolv.conf"
 if compgen -G '/usr/local/share/ca-certificates/*.crt' >/dev/null; then
