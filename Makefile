@@ -15,10 +15,12 @@ CXX     ?= g++
 BUILD   := build
 SHARED  ?= $(abspath ../shared)
 
-# Libraries are checked with dpkg; tools by their command, so a machine whose node
-# or compiler came from elsewhere is not asked to install a conflicting package.
+# Libraries are checked with dpkg (libclang-rt-dev: libFuzzer's runtime for Debian's default
+# clang, libclang-rt-14-dev on Debian 12, -19-dev on Debian 13); tools by their command, so
+# a machine whose node or compiler came from elsewhere is not asked to install a conflicting
+# package.
 DEBIAN_PACKAGES := pkg-config libtinygltf-dev nlohmann-json3-dev libstb-dev libdraco-dev \
-	libmeshoptimizer-dev libopenmesh-dev libtomlplusplus-dev libcgal-dev
+	libmeshoptimizer-dev libopenmesh-dev libtomlplusplus-dev libcgal-dev libclang-rt-dev
 DEBIAN_TOOLS := g++:g++ make:make python3:python3 node:nodejs npm:npm clang:clang strace:strace pgrep:procps
 
 CPPFLAGS_COMMON := -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L -Isrc -Ithird_party -I$(BUILD)/gen
@@ -96,14 +98,6 @@ deps:
 	  echo "installing:$$missing"; \
 	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
 	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; \
-	fi
-	@# libFuzzer's runtime is packaged per clang version (14 on Debian 12, 19 on Debian 13):
-	@# the one for the clang found, installed after it
-	@rt=libclang-rt-$$(clang -dumpversion | cut -d. -f1)-dev; \
-	if ! dpkg-query -W -f='$${Status}' $$rt 2>/dev/null | grep -q "install ok installed"; then \
-	  echo "installing: $$rt (libFuzzer for this clang)"; \
-	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
-	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$rt; \
 	fi
 	@$(MAKE) --no-print-directory tests/node_modules/.installed
 
