@@ -28,8 +28,8 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
@@ -1151,7 +1151,6 @@ tinygltf::FsCallbacks file_system()
     fs.ExpandFilePath = &tinygltf::ExpandFilePath;
     fs.ReadWholeFile = &read_external_file;
     fs.WriteWholeFile = &tinygltf::WriteWholeFile;
-    fs.user_data = nullptr;
     set_file_size_callback(fs, 0);
     return fs;
 }
