@@ -11,7 +11,8 @@
  *   meshopt_peer simplify FILE MESH T1[,T2,...] OUT.obj [--error E]
  *       A chain: level 1 = meshopt_simplify(original, target T1 triangles),
  *       level 2 = meshopt_simplify(level 1, T2), ...; writes the LAST level
- *       as OBJ (only the vertices it uses, "v %.9g", "f" 1-based) and prints
+ *       as OBJ (only the vertices it uses, "v %.17g" of each float: exact for a
+ *       reader that parses doubles, "f" 1-based) and prints
  *       JSON with each level's triangle count and meshopt's result_error.
  *       target_error is 1.0 (the count decides) unless --error E gives E as a
  *       fraction of the bbox DIAGONAL (converted to meshopt's extent-relative
@@ -176,7 +177,7 @@ static void write_obj(const char *path, const peer_mesh *pm, const unsigned *idx
         if (remap[v] == UINT32_MAX) {
             remap[v] = used++;
             const float *p = pm->w.positions + 3 * (size_t)v;
-            fprintf(f, "v %.9g %.9g %.9g\n", p[0], p[1], p[2]);
+            fprintf(f, "v %.17g %.17g %.17g\n", (double)p[0], (double)p[1], (double)p[2]);
         }
     }
     for (size_t i = 0; i + 2 < count; i += 3)

@@ -581,7 +581,11 @@ static int stage_bytes(output_set *set, const char *path, const char *bytes, siz
 /* The mesh's welded vertices as OBJ "v" lines, formatted once: every level
  * of a half-edge chain repeats them, and printf of 3 floats a line was most of
  * the time spent writing a large mesh's levels. line[v] .. line[v + 1] is
- * vertex v's line in text. %.9g prints every float exactly. */
+ * vertex v's line in text. Each coordinate is printed with 17 significant
+ * digits: a reader that parses it as a double then gets the float's exact
+ * value. %.9g is only enough for a reader that parses floats: 100000.836 is
+ * 100000.8359375 read as a double, 4e-5 off, which a measure of the certified
+ * bound (1e-7 of the diagonal) must not see. */
 typedef struct obj_vertex_lines {
     char *text;
     size_t size;
@@ -600,7 +604,7 @@ static int memstream_close(FILE *f, char *const *buf)
 
 static int format_vertex(FILE *f, const float *p)
 {
-    return fprintf(f, "v %.9g %.9g %.9g\n", p[0], p[1], p[2]) < 0;
+    return fprintf(f, "v %.17g %.17g %.17g\n", (double)p[0], (double)p[1], (double)p[2]) < 0;
 }
 
 static int obj_vertex_lines_init(obj_vertex_lines *l, const weld_result *w)

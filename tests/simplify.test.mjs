@@ -952,6 +952,58 @@ for (const kind of ['segment', 'point', 'collinear']) {
     });
 }
 
+// The OBJs of `simplify` are what an outside measure reads, so their coordinates must be the input's floats
+// exactly when read as doubles (QA stress run, 2026-12-06): "v %.9g" printed 100000.8359375 as 100000.836,
+// 4e-5 off for a double reader (up to 5e-4 at 1e5), and the CGAL tool then measured a level of a sphere
+// moved 1e5 units 18 % past its (true) certified bound. Far from the origin is where the digits run out.
+test('simplify OBJs: every coordinate a double reader takes is the input float exactly (a sphere 1e5 units from the origin)',
+  { skip: skipCorpus }, async (t) => {
+    if (hausdorffSkip) assert.fail(`${hausdorffSkip}: soundness cannot be checked`);
+    const dir = tempDir(t, 'lodpipe-far-');
+    const inFile = path.join(dir, 'far_sphere.glb');
+    const { pos, idx } = icosphere(4);
+    // bumps, so that the levels are tight against their bounds, then the move
+    const p = Float32Array.from(pos.map((c, i) => 1e5 + c * (1 + 0.03 * Math.sin(7 * pos[i - (i % 3)] + 5 * pos[i - (i % 3) + 1]))));
+    const lo = [0, 1, 2].map((k) => Math.min(...p.filter((_, i) => i % 3 === k)));
+    const hi = [0, 1, 2].map((k) => Math.max(...p.filter((_, i) => i % 3 === k)));
+    const { json, bin } = pack({
+      json: {
+        asset: { version: '2.0' }, scene: 0, scenes: [{ nodes: [0] }], nodes: [{ mesh: 0 }],
+        meshes: [{ name: 'far_sphere', primitives: [{ attributes: { POSITION: 0 }, indices: 1 }] }],
+        accessors: [{ componentType: 5126, type: 'VEC3', min: lo, max: hi }, { componentType: 5125, type: 'SCALAR' }],
+      },
+      datas: [p, Uint32Array.from(idx)],
+    });
+    writeGlb(inFile, json, bin);
+    const outDir = path.join(dir, 'out');
+    fs.mkdirSync(outDir);
+    const r = runLodpipe(['simplify', inFile, outDir, '--levels', '0.05,1']);
+    assert.equal(r.status, 0, describeRun(r));
+    const inputFloats = new Set();
+    for (let v = 0; v < p.length; v += 3) inputFloats.add(`${p[v]},${p[v + 1]},${p[v + 2]}`);
+    const m = JSON.parse(fs.readFileSync(path.join(outDir, 'simplify.json'), 'utf8')).meshes[0];
+    const D = m.diagonal;
+    for (const L of [0, 1, 2]) {
+      const obj = readObj(path.join(outDir, `mesh0_level${L}.obj`));
+      assert.deepEqual(obj.problems, []);
+      let inexact = 0, foreign = 0, example = '';
+      for (let v = 0; v < obj.nv; v++) {
+        const c = [obj.pos[3 * v], obj.pos[3 * v + 1], obj.pos[3 * v + 2]];
+        if (c.some((x) => Math.fround(x) !== x)) {
+          if (!inexact++) example = c.join(' ');
+        } else if (!inputFloats.has(c.join(','))) foreign++;
+      }
+      assert.equal(inexact, 0, `level ${L}: ${inexact} of ${obj.nv} vertices are not floats as read (e.g. ${example})`);
+      assert.equal(foreign, 0, `level ${L}: ${foreign} vertices are not input vertices`);
+      if (L === 0) continue;
+      const l = m.levels[L - 1];
+      const h = hausdorffWithin(`${inFile}#mesh=0`, path.join(outDir, `mesh0_level${L}.obj`), l.bound, D, SLACK_REL * D);
+      t.diagnostic(`level ${L}: ${l.triangles} triangles, bound ${fmt(l.bound / D)} x diagonal, Hausdorff to the input in ` +
+        `[${fmt(h.lower / D)}, ${fmt(h.upper / D)}] x diagonal`);
+      assert.equal(h.verdict, 'pass', `level ${L}: Hausdorff to the input in [${h.lower}, ${h.upper}], bound ${l.bound}`);
+    }
+  });
+
 // Recorded bounds are upper bounds to the last bit (QA sweep, 2026-12-05): on 2CylinderEngine with this
 // ladder, an original vertex lay 2.8e-15 (mesh 12, level 3) and 9.5e-15 (mesh 13, levels 4 and 5) farther
 // from the level than the bound, which was a distance computed in double. The bound now carries the
