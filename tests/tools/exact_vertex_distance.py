@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Exact check of a recorded bound at the vertices: is every vertex of A.obj within
 BOUND of B.obj's surface? Coordinates are read as float32 (lodpipe writes each float
-with %.9g, which reads back to the same float32 but is not its exact value), distances
+with %.17g, its exact value; rounding to float32 keeps it so and also reads an OBJ
+printed with fewer digits as the floats it came from), distances
 are screened in double and every vertex whose double distance is within 1e-6 of BOUND
 (relative) is settled in exact rational arithmetic against BOUND as a double.
 
