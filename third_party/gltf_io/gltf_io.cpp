@@ -1117,8 +1117,8 @@ bool external_file_exists(const std::string &path, void *)
 
 // tinygltf's size of a referenced file, without allocating but for an error
 // text (tinygltf 2.8 and later ask for it before reading, to refuse a file
-// over their limit).
-bool external_file_size(size_t *size, std::string *err, const std::string &path, void *)
+// over their limit). Unused with an older tinygltf: clang would say so.
+[[maybe_unused]] bool external_file_size(size_t *size, std::string *err, const std::string &path, void *)
 {
     struct stat st;
     if (stat(path.c_str(), &st) != 0) {
