@@ -4,8 +4,12 @@ adversarial mesh (adversarial_mesh.py), `lodpipe simplify` with a ladder and pla
 picked by the seed, and every level measured against the INPUT by the independent CGAL
 tool (`hausdorff --within`, a proof either way or "open").
 
-usage: soundness_run.py FIRST LAST [--dir DIR] [--lodpipe BIN] [--hausdorff BIN]
+usage: soundness_run.py FIRST LAST [--dir DIR] [--lodpipe BIN] [--hausdorff BIN] [--main-job]
        soundness_run.py --seeds S1,S2,... [options]
+  --main-job also runs `lodpipe IN -o OUT.glb`, and with --draco on every other seed, and
+  measures every LOD node of the output (LOD0 too) against the input within the error its
+  record gives; a --draco run may refuse with exit 3 (float32 cannot carry Draco's grid
+  far from the origin: one line on stderr), which is counted, not failed.
   DIR (default /tmp/lodpipe-soundness) keeps each seed's input and levels in DIR/s<SEED>/
   and one JSON line per seed in DIR/log.jsonl.
 Prints a line per seed; exit 1 when lodpipe failed on a seed or a level was proven
@@ -19,6 +23,7 @@ ap = argparse.ArgumentParser()
 ap.add_argument('first', type=int, nargs='?')
 ap.add_argument('last', type=int, nargs='?')
 ap.add_argument('--seeds', help='a list instead of the range FIRST..LAST-1')
+ap.add_argument('--main-job', action='store_true')
 ap.add_argument('--dir', default='/tmp/lodpipe-soundness')
 ap.add_argument('--lodpipe', default='build/lodpipe')
 ap.add_argument('--hausdorff', default='build/hausdorff/hausdorff')
@@ -33,7 +38,7 @@ else:
 LADDERS = ['1,3,7,15', '0.2,0.5,1', '0.05,2', '5,10,20,40', '0.5']
 os.makedirs(a.dir, exist_ok=True)
 log = open(os.path.join(a.dir, 'log.jsonl'), 'a')
-bad_seeds, open_levels, levels_checked = [], 0, 0
+bad_seeds, open_levels, levels_checked, refusals = [], 0, 0, 0
 
 
 def within(inp, level, bound, diag):
@@ -81,16 +86,47 @@ for seed in seeds:
                                 f"measured [{j.get('hausdorff')}, {j.get('hausdorff_upper')}]")
             rec['levels'].append({'level': l['level'], 'triangles': l['triangles'], 'eps': l['eps'], 'bound': l['bound'],
                                   'lower': j.get('hausdorff'), 'upper': j.get('hausdorff_upper'), 'verdict': verdict})
+    if a.main_job:
+        draco = ['--draco'] if seed % 2 else []
+        out = os.path.join(d, 'out.glb')
+        r = subprocess.run([a.lodpipe, inp, '-o', out, '-q', '--levels', ladder, *extra, *draco], capture_output=True, text=True)
+        rec['main_job'] = {'draco': bool(draco), 'rc': r.returncode, 'stderr': r.stderr.strip()[-300:], 'levels': []}
+        if r.returncode == 3 and draco and len(r.stderr.strip().splitlines()) == 1 and not os.path.exists(out):
+            refusals += 1
+        elif r.returncode != 0:
+            problems.append(f"main job{' --draco' if draco else ''} exit {r.returncode}: {r.stderr.strip()[-200:]}")
+        else:
+            with open(out, 'rb') as f:
+                glb = f.read()
+            length = int.from_bytes(glb[12:16], 'little')
+            doc = json.loads(glb[20:20 + length])
+            record = ((doc['nodes'][0].get('extras') or {}).get('lodpipe') or {}).get('levels', [])
+            diag = json.load(open(os.path.join(d, 'simplify.json')))['meshes'][0]['diagonal']
+            for lv in (record if diag > 0 else []):
+                verdict, j = within(inp + '#mesh=0', f"{out}#node={lv['node']}", lv['error'], diag)
+                levels_checked += 1
+                open_levels += verdict == 'open'
+                if verdict in ('FAIL', 'error'):
+                    problems.append(f"main job node {lv['node']}: {verdict}, recorded error {lv['error']}, "
+                                    f"measured [{j.get('hausdorff')}, {j.get('hausdorff_upper')}]")
+                rec['main_job']['levels'].append({'node': lv['node'], 'triangles': lv['triangles'], 'error': lv['error'],
+                                                  'lower': j.get('hausdorff'), 'upper': j.get('hausdorff_upper'), 'verdict': verdict})
     rec['problems'] = problems
     log.write(json.dumps(rec) + '\n')
     log.flush()
     if problems:
         bad_seeds.append(seed)
     opened = [x['level'] for x in rec['levels'] if x['verdict'] == 'open']
+    main = rec.get('main_job')
+    if main:
+        opened += [f"node {x['node']}" for x in main['levels'] if x['verdict'] == 'open']
     print(f"seed {seed} {desc['kind']} {desc['triangles']} triangles, levels {ladder} {' '.join(extra)}: "
-          f"{[x['triangles'] for x in rec['levels']]} {'; '.join(problems) if problems else 'ok'}"
+          f"{[x['triangles'] for x in rec['levels']]}"
+          f"{'' if not main else ', main job' + (' --draco' if main['draco'] else '') + ': ' + ('refused (exit 3)' if main['rc'] == 3 else str([x['triangles'] for x in main['levels']]))}"
+          f" {'; '.join(problems) if problems else 'ok'}"
           f"{f' (open: levels {opened})' if opened else ''}", flush=True)
 
 print(f'{len(seeds)} seeds, {levels_checked} levels measured, {open_levels} open, '
-      f'{len(bad_seeds)} seeds with problems{": " + str(bad_seeds) if bad_seeds else ""}')
+      + (f'{refusals} --draco runs refused, ' if a.main_job else '')
+      + f'{len(bad_seeds)} seeds with problems{": " + str(bad_seeds) if bad_seeds else ""}')
 sys.exit(1 if bad_seeds else 0)
