@@ -580,16 +580,24 @@ static int stage_bytes(output_set *set, const char *path, const char *bytes, siz
 
 /* The mesh's welded vertices as OBJ "v" lines, formatted once: every level
  * of a half-edge chain repeats them, and printf of 3 floats a line was most of
- * the time spent writing a large mesh's levels. line[v] .. line[v + 1] is
- * vertex v's line in text. Each coordinate is printed with 17 significant
- * digits: a reader that parses it as a double then gets the float's exact
- * value. %.9g is only enough for a reader that parses floats: 100000.836 is
- * 100000.8359375 read as a double, 4e-5 off, which a measure of the certified
- * bound (1e-7 of the diagonal) must not see. */
+ * the time spent writing a large mesh's levels. Each coordinate is printed
+ * with 17 significant digits: a reader that parses it as a double then gets
+ * the float's exact value. %.9g is only enough for a reader that parses
+ * floats: 100000.836 is 100000.8359375 read as a double, 4e-5 off, which a
+ * measure of the certified bound (1e-7 of the diagonal) must not see.
+ * The lines are formatted in chunks of OBJ_CHUNK vertices, on the run's
+ * threads (the text does not depend on them): chunk c holds the lines of
+ * vertices c * OBJ_CHUNK onwards, in order, and line[v] is where vertex v's
+ * line starts in its chunk. */
+#define OBJ_CHUNK 16384u
+
 typedef struct obj_vertex_lines {
-    char *text;
-    size_t size;
-    size_t *line; /* vertex_count + 1 offsets */
+    const weld_result *w;
+    uint32_t chunk_count;
+    char **chunk_text;
+    size_t *chunk_size;
+    size_t *line; /* vertex_count offsets */
+    uint8_t *chunk_bad;
 } obj_vertex_lines;
 
 /* Closes a stream from open_memstream; nonzero when a write to it failed or
@@ -607,36 +615,58 @@ static int format_vertex(FILE *f, const float *p)
     return fprintf(f, "v %.17g %.17g %.17g\n", (double)p[0], (double)p[1], (double)p[2]) < 0;
 }
 
-static int obj_vertex_lines_init(obj_vertex_lines *l, const weld_result *w)
+/* Formats chunk c (an lp_team_for item). */
+static void format_chunk(void *arg, uint32_t c)
 {
-    l->text = NULL;
-    l->size = 0;
-    l->line = malloc(((size_t)w->vertex_count + 1) * sizeof *l->line);
-    FILE *f = l->line ? open_memstream(&l->text, &l->size) : NULL;
-    if (!f) {
-        free(l->line);
-        return LP_INVALID;
-    }
-    int bad = 0;
-    for (uint32_t v = 0; v < w->vertex_count && !bad; ++v) {
-        long at = ftell(f);
-        bad = at < 0 || format_vertex(f, w->positions + 3 * (size_t)v);
+    obj_vertex_lines *l = arg;
+    const uint32_t begin = c * OBJ_CHUNK, n = l->w->vertex_count;
+    const uint32_t end = n - begin < OBJ_CHUNK ? n : begin + OBJ_CHUNK;
+    FILE *f = open_memstream(&l->chunk_text[c], &l->chunk_size[c]);
+    int bad = !f;
+    for (uint32_t v = begin; v < end && !bad; ++v) {
+        const long at = ftell(f);
+        bad = at < 0 || format_vertex(f, l->w->positions + 3 * (size_t)v);
         l->line[v] = (size_t)at;
     }
-    long end = ftell(f);
-    l->line[w->vertex_count] = (size_t)end;
-    if (memstream_close(f, &l->text) || bad || end < 0) {
-        free(l->text);
-        free(l->line);
+    if (f) bad |= memstream_close(f, &l->chunk_text[c]);
+    l->chunk_bad[c] = (uint8_t)bad;
+}
+
+static void obj_vertex_lines_free(obj_vertex_lines *l)
+{
+    for (uint32_t c = 0; l->chunk_text && c < l->chunk_count; ++c) free(l->chunk_text[c]);
+    free(l->chunk_text);
+    free(l->chunk_size);
+    free(l->line);
+    free(l->chunk_bad);
+}
+
+static int obj_vertex_lines_init(obj_vertex_lines *l, const weld_result *w, uint32_t threads)
+{
+    l->w = w;
+    l->chunk_count = w->vertex_count / OBJ_CHUNK + (w->vertex_count % OBJ_CHUNK != 0);
+    const size_t chunks = (size_t)l->chunk_count + 1;
+    l->chunk_text = calloc(chunks, sizeof *l->chunk_text);
+    l->chunk_size = calloc(chunks, sizeof *l->chunk_size);
+    l->chunk_bad = calloc(chunks, 1);
+    l->line = malloc(((size_t)w->vertex_count + 1) * sizeof *l->line);
+    int bad = !l->chunk_text || !l->chunk_size || !l->chunk_bad || !l->line;
+    if (!bad) lp_team_for(threads, l->chunk_count, format_chunk, l);
+    for (uint32_t c = 0; c < l->chunk_count && !bad; ++c) bad = l->chunk_bad[c];
+    if (bad) {
+        obj_vertex_lines_free(l);
         return LP_INVALID;
     }
     return LP_OK;
 }
 
-static void obj_vertex_lines_free(obj_vertex_lines *l)
+/* Writes vertex v's line; nonzero when the write fails. */
+static int write_vertex_line(FILE *f, const obj_vertex_lines *l, uint32_t v)
 {
-    free(l->text);
-    free(l->line);
+    const uint32_t c = v / OBJ_CHUNK;
+    const size_t end = (v + 1) % OBJ_CHUNK && v + 1 < l->w->vertex_count ? l->line[v + 1] : l->chunk_size[c];
+    const size_t n = end - l->line[v];
+    return fwrite(l->chunk_text[c] + l->line[v], 1, n, f) != n;
 }
 
 /* One level as OBJ, staged in set: the mesh's welded vertices (shared by all levels; at
@@ -652,18 +682,12 @@ static int write_obj(output_set *set, const char *path, const weld_result *w, co
     size_t size = 0;
     FILE *f = open_memstream(&buf, &size);
     int bad = !f;
-    if (!positions && !bad) { /* every vertex where the weld put it: the lines as formatted */
-        const size_t n = lines->line[w->vertex_count];
-        bad = fwrite(lines->text, 1, n, f) != n;
-    }
+    for (uint32_t c = 0; !positions && !bad && c < lines->chunk_count; ++c) /* every vertex where the weld put it */
+        bad = fwrite(lines->chunk_text[c], 1, lines->chunk_size[c], f) != lines->chunk_size[c];
     for (uint32_t v = 0; positions && v < w->vertex_count && !bad; ++v) {
         const float *p = positions + 3 * (size_t)v;
-        if (memcmp(p, w->positions + 3 * (size_t)v, 3 * sizeof *p) != 0) {
-            bad = format_vertex(f, p);
-            continue;
-        }
-        size_t n = lines->line[v + 1] - lines->line[v];
-        bad = fwrite(lines->text + lines->line[v], 1, n, f) != n;
+        bad = memcmp(p, w->positions + 3 * (size_t)v, 3 * sizeof *p) != 0 ? format_vertex(f, p)
+                                                                           : write_vertex_line(f, lines, v);
     }
     const uint32_t total = face_count + (face_vertices ? w->back_count + w->dangling_count : 0);
     for (uint32_t t = 0; t < total && !bad; ++t) {
@@ -800,7 +824,7 @@ static int cmd_simplify(const cli *c)
         }
         {
             obj_vertex_lines lines;
-            rc = obj_vertex_lines_init(&lines, &w);
+            rc = obj_vertex_lines_init(&lines, &w, lp_threads((uint32_t)c->config.run.threads, LP_TEAM_MAX));
             if (!rc) {
                 level_obj_path(path, sizeof path, dir, m, 0);
                 rc = write_obj(set, path, &w, &lines, NULL, w.triangle_vertices, w.triangle_count, NULL);
