@@ -256,8 +256,9 @@ function triangleMultiset(tris) {
   return { m, degenerate };
 }
 
+/** The OBJ's triangles as read (doubles: lodpipe prints each float exactly, so no rounding to float here). */
 function objTriangles(obj) {
-  const c = (i) => [Math.fround(obj.pos[3 * i]), Math.fround(obj.pos[3 * i + 1]), Math.fround(obj.pos[3 * i + 2])];
+  const c = (i) => [obj.pos[3 * i], obj.pos[3 * i + 1], obj.pos[3 * i + 2]];
   const tris = [];
   for (let f = 0; f < obj.faces.length; f += 3) tris.push([c(obj.faces[f]), c(obj.faces[f + 1]), c(obj.faces[f + 2])]);
   return tris;
