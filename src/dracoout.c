@@ -2,16 +2,21 @@
  *
  * The float slack of the grid bound. Draco 1.5 (AttributeQuantizationTransform
  * with Quantizer / Dequantizer, core/quantization_utils.h) computes, all in
- * float32 with M = 2^b - 1:
+ * float32 with M = 2^b - 1 and D = r / M:
  *     encode  q = floor(fl(fl(x - o) * fl(M / r)) + 0.5)
- *     decode  x' = fl(fl(q * fl(r / M)) + o)
+ *     decode  x' = fl(fl(float(q) * fl(r / M)) + o)
  * With u = 2^-24 and 0 <= x - o <= r: fl(x - o) is off by <= u r; the product
  * carries three relative roundings, so it is within 3.01 u M of (x - o) / D;
  * adding 0.5 rounds by <= u (M + 1); hence |q - (x - o) / D| <= 1/2 + 4.02 u M
- * + u, i.e. |q D - (x - o)| <= D / 2 + 4.1 u r. Decoding: q * fl(r / M) has
- * two relative roundings of a value <= r (1 + 5u): <= 2.1 u r; the final sum
- * rounds by <= u (|o| + r + D). Together |x' - x| <= D / 2 + 7.3 u r + 1.1 u |o|,
- * which 2^-20 (r + |o|) = 16 u (r + |o|) covers with room to spare. */
+ * + u, i.e. |q D - (x - o)| <= D / 2 + 4.1 u r. Decoding: float(q) (inexact
+ * above 24 bits), fl(r / M) and their product are three relative roundings of
+ * a value <= r (1 + 5u): <= 3.1 u r; the final sum rounds by <= u (|o| + r +
+ * D). Together |x' - x| <= D / 2 + 8.3 u r + 1.0 u |o|, which
+ * 2^-20 r + 2^-23 |o| = 16 u r + 2 u |o| covers with about twice the room in
+ * each term. The origin's term is kept apart from the range's: a mesh 1e5
+ * units from the origin has only float32's resolution there (its half-ulp,
+ * 0.0039, is u |o|), and a common factor of 16 on |o| refused Draco for
+ * levels whose eps was 15 times that. */
 #include "dracoout.h"
 
 #include <math.h>
@@ -23,7 +28,8 @@
 #include "draco_codec/draco_codec.h"
 #include "jsonw.h"
 
-#define FLOAT_SLACK (1.0 / 1048576.0) /* 2^-20 */
+#define FLOAT_SLACK_RANGE (1.0 / 1048576.0) /* 2^-20 */
+#define FLOAT_SLACK_ORIGIN (1.0 / 8388608.0) /* 2^-23 */
 
 /* Draco keeps an explicit grid's origin and range in its options as text,
  * std::to_string's six decimals, and parses them back with atof: the grid it
@@ -71,7 +77,7 @@ void dracoout_grid_of(const double lo[3], const double hi[3], int bits, dracoout
     const double step = (double)range / (double)((1u << bits) - 1u);
     double sum = 0;
     for (int c = 0; c < 3; ++c) {
-        g->axis_bound[c] = 0.5 * step + FLOAT_SLACK * ((double)range + fabs((double)g->origin[c]));
+        g->axis_bound[c] = 0.5 * step + FLOAT_SLACK_RANGE * (double)range + FLOAT_SLACK_ORIGIN * fabs((double)g->origin[c]);
         sum += g->axis_bound[c] * g->axis_bound[c];
     }
     g->bound = sqrt(sum);

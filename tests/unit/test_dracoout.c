@@ -90,6 +90,26 @@ static void test_bound_holds_for_every_bit_count(void)
             }
 }
 
+/* Far from the origin float32 itself is coarse (its half-ulp at 1e5 is
+ * 0.0039): the bound must hold there and stay within a small multiple of
+ * that, or Draco is refused for levels float32 could carry (the slack's
+ * origin term was once 16 u |o|, 0.095 a coordinate at 1e5). */
+static void test_bound_far_from_the_origin(void)
+{
+    const double center = 1e5, extent = 3.76, half_ulp = 0.00390625;
+    for (int bits = 14; bits <= 30; bits += 16) {
+        double share;
+        const double worst = worst_share(center, extent, bits, &share);
+        CHECK(worst <= 1.0, "bits %d at %g: error %.3f x the bound", bits, center, worst);
+    }
+    const double lo[3] = {center, center, center}, hi[3] = {center + extent, center + extent, center + extent};
+    dracoout_grid g;
+    dracoout_grid_of(lo, hi, 30, &g);
+    for (int c = 0; c < 3; ++c)
+        CHECK(g.axis_bound[c] <= 4 * half_ulp, "axis %d: bound %g at 30 bits, float32's half-ulp %g", c,
+              g.axis_bound[c], half_ulp);
+}
+
 static void test_bound_is_tight_on_coarse_grids(void)
 {
     for (int bits = 4; bits <= 14; bits += 5) {
@@ -140,6 +160,7 @@ static void test_grid_contains_the_box(void)
 int main(void)
 {
     RUN(test_bound_holds_for_every_bit_count);
+    RUN(test_bound_far_from_the_origin);
     RUN(test_bound_is_tight_on_coarse_grids);
     RUN(test_bound_holds_for_tiny_and_off_lattice_boxes);
     RUN(test_single_point_has_no_error);
