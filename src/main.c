@@ -583,7 +583,7 @@ static int stage_bytes(output_set *set, const char *path, const char *bytes, siz
  * the time spent writing a large mesh's levels. Each coordinate is printed
  * with 17 significant digits: a reader that parses it as a double then gets
  * the float's exact value. %.9g is only enough for a reader that parses
- * floats: 100000.836 is 100000.8359375 read as a double, 4e-5 off, which a
+ * floats: 100000.836 is 100000.8359375 read as a double, 6e-5 off, which a
  * measure of the certified bound (1e-7 of the diagonal) must not see.
  * The lines are formatted in chunks of OBJ_CHUNK vertices, on the run's
  * threads (the text does not depend on them): chunk c holds the lines of
