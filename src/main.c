@@ -597,7 +597,6 @@ typedef struct obj_vertex_lines {
     char **chunk_text;
     size_t *chunk_size;
     size_t *line; /* vertex_count offsets */
-    uint8_t *chunk_bad;
 } obj_vertex_lines;
 
 /* Closes a stream from open_memstream; nonzero when a write to it failed or
@@ -615,7 +614,7 @@ static int format_vertex(FILE *f, const float *p)
     return fprintf(f, "v %.17g %.17g %.17g\n", (double)p[0], (double)p[1], (double)p[2]) < 0;
 }
 
-/* Formats chunk c (an lp_team_for item). */
+/* Formats chunk c (an lp_team_for item); its text stays NULL when that fails. */
 static void format_chunk(void *arg, uint32_t c)
 {
     obj_vertex_lines *l = arg;
@@ -628,8 +627,10 @@ static void format_chunk(void *arg, uint32_t c)
         bad = at < 0 || format_vertex(f, l->w->positions + 3 * (size_t)v);
         l->line[v] = (size_t)at;
     }
-    if (f) bad |= memstream_close(f, &l->chunk_text[c]);
-    l->chunk_bad[c] = (uint8_t)bad;
+    if (f && (memstream_close(f, &l->chunk_text[c]) || bad)) {
+        free(l->chunk_text[c]);
+        l->chunk_text[c] = NULL;
+    }
 }
 
 static void obj_vertex_lines_free(obj_vertex_lines *l)
@@ -638,7 +639,6 @@ static void obj_vertex_lines_free(obj_vertex_lines *l)
     free(l->chunk_text);
     free(l->chunk_size);
     free(l->line);
-    free(l->chunk_bad);
 }
 
 static int obj_vertex_lines_init(obj_vertex_lines *l, const weld_result *w, uint32_t threads)
@@ -648,11 +648,10 @@ static int obj_vertex_lines_init(obj_vertex_lines *l, const weld_result *w, uint
     const size_t chunks = (size_t)l->chunk_count + 1;
     l->chunk_text = calloc(chunks, sizeof *l->chunk_text);
     l->chunk_size = calloc(chunks, sizeof *l->chunk_size);
-    l->chunk_bad = calloc(chunks, 1);
     l->line = malloc(((size_t)w->vertex_count + 1) * sizeof *l->line);
-    int bad = !l->chunk_text || !l->chunk_size || !l->chunk_bad || !l->line;
+    int bad = !l->chunk_text || !l->chunk_size || !l->line;
     if (!bad) lp_team_for(threads, l->chunk_count, format_chunk, l);
-    for (uint32_t c = 0; c < l->chunk_count && !bad; ++c) bad = l->chunk_bad[c];
+    for (uint32_t c = 0; c < l->chunk_count && !bad; ++c) bad = !l->chunk_text[c];
     if (bad) {
         obj_vertex_lines_free(l);
         return LP_INVALID;

@@ -893,19 +893,23 @@ function writeStraySphere(file, kind) {
     pos.push(x, 0, 0);
     idx.push(n, n, n);
   }
-  const p = Float32Array.from(pos);
+  writePositionsGlb(file, `sphere_${kind}`, Float32Array.from(pos), idx);
+  return idx.length / 3;
+}
+
+/** A .glb of one mesh, one triangle primitive: float positions p (xyz per vertex) and indices idx. */
+function writePositionsGlb(file, name, p, idx) {
   const lo = [0, 1, 2].map((k) => Math.min(...p.filter((_, i) => i % 3 === k)));
   const hi = [0, 1, 2].map((k) => Math.max(...p.filter((_, i) => i % 3 === k)));
   const { json, bin } = pack({
     json: {
       asset: { version: '2.0' }, scene: 0, scenes: [{ nodes: [0] }], nodes: [{ mesh: 0 }],
-      meshes: [{ name: `sphere_${kind}`, primitives: [{ attributes: { POSITION: 0 }, indices: 1 }] }],
+      meshes: [{ name, primitives: [{ attributes: { POSITION: 0 }, indices: 1 }] }],
       accessors: [{ componentType: 5126, type: 'VEC3', min: lo, max: hi }, { componentType: 5125, type: 'SCALAR' }],
     },
     datas: [p, Uint32Array.from(idx)],
   });
   writeGlb(file, json, bin);
-  return idx.length / 3;
 }
 
 for (const kind of ['segment', 'point', 'collinear']) {
@@ -965,17 +969,7 @@ test('simplify OBJs: every coordinate a double reader takes is the input float e
     const { pos, idx } = icosphere(4);
     // bumps, so that the levels are tight against their bounds, then the move
     const p = Float32Array.from(pos.map((c, i) => 1e5 + c * (1 + 0.03 * Math.sin(7 * pos[i - (i % 3)] + 5 * pos[i - (i % 3) + 1]))));
-    const lo = [0, 1, 2].map((k) => Math.min(...p.filter((_, i) => i % 3 === k)));
-    const hi = [0, 1, 2].map((k) => Math.max(...p.filter((_, i) => i % 3 === k)));
-    const { json, bin } = pack({
-      json: {
-        asset: { version: '2.0' }, scene: 0, scenes: [{ nodes: [0] }], nodes: [{ mesh: 0 }],
-        meshes: [{ name: 'far_sphere', primitives: [{ attributes: { POSITION: 0 }, indices: 1 }] }],
-        accessors: [{ componentType: 5126, type: 'VEC3', min: lo, max: hi }, { componentType: 5125, type: 'SCALAR' }],
-      },
-      datas: [p, Uint32Array.from(idx)],
-    });
-    writeGlb(inFile, json, bin);
+    writePositionsGlb(inFile, 'far_sphere', p, idx);
     const outDir = path.join(dir, 'out');
     fs.mkdirSync(outDir);
     const r = runLodpipe(['simplify', inFile, outDir, '--levels', '0.05,1']);
@@ -1006,10 +1000,11 @@ test('simplify OBJs: every coordinate a double reader takes is the input float e
   });
 
 // Seeded adversarial meshes (tests/tools/adversarial_mesh.py), one or two of each kind: spikes and pits,
-// a cliff and a sawtooth border, plates and shells thinner than eps, grooves, a self-intersecting sheet,
-// a tube of radius near eps, non-manifold fins; some split into two materials, scaled by 1e-3 or 1e3, or
-// 1e5 units from the origin. Each level is measured by the CGAL tool against the INPUT .glb. The same
-// runner takes longer ranges by hand (tests/tools/soundness_run.py FIRST LAST); 2026-12-06: seeds 10-399.
+// a cliff and a sawtooth border, plates and shells about as thin as eps, grooves, a self-intersecting
+// sheet, a tube of radius near eps, non-manifold fins; some split into two materials, scaled by 1e-3 or
+// 1e3, or 1e5 units from the origin. Each level is measured by the CGAL tool against the INPUT .glb. The
+// same runner takes longer ranges by hand (tests/tools/soundness_run.py FIRST LAST [--main-job]);
+// 2026-12-06: seeds 118-399, and 1-199 with --main-job (README "Measured figures").
 const ADVERSARIAL_SEEDS = [2, 6, 18, 8, 13, 7, 24, 25, 40, 19];
 const ADVERSARIAL_KINDS = ['sphere', 'terrain', 'plate', 'shells', 'grooves', 'crumple', 'tube', 'fins'];
 test(`adversarial meshes (seeds ${ADVERSARIAL_SEEDS.join(', ')}): every level proven within its bound of the input`,

@@ -60,6 +60,19 @@ def within(inp, level, bound, diag):
     return 'open', j
 
 
+def measure(inp, target, bound, diag, entry, problems, what):
+    """Measures target against the input within bound; entry (the log's record of it) gets the
+    verdict and the measured interval, problems a line when the bound was proven false."""
+    global levels_checked, open_levels
+    verdict, j = within(inp, target, bound, diag)
+    levels_checked += 1
+    open_levels += verdict == 'open'
+    if verdict in ('FAIL', 'error'):
+        problems.append(f"{what}: {verdict}, bound {bound}, measured [{j.get('hausdorff')}, {j.get('hausdorff_upper')}]")
+    entry.update(lower=j.get('hausdorff'), upper=j.get('hausdorff_upper'), verdict=verdict)
+    return entry
+
+
 for seed in seeds:
     d = os.path.join(a.dir, f's{seed}')
     os.makedirs(d, exist_ok=True)
@@ -74,43 +87,36 @@ for seed in seeds:
     rec = dict(desc, ladder=ladder, extra=extra, rc=r.returncode, stderr=r.stderr.strip()[-300:],
                seconds=round(time.time() - t0, 2), levels=[])
     problems = [] if r.returncode == 0 else [f'lodpipe exit {r.returncode}: {r.stderr.strip()[-200:]}']
+    diag = 0  # a mesh that spans no space gets no levels (nor is anything measured when simplify failed)
     if r.returncode == 0:
         m = json.load(open(os.path.join(d, 'simplify.json')))['meshes'][0]
         diag = m['diagonal']
-        for l in (m['levels'] if diag > 0 else []):  # a mesh that spans no space gets no levels
-            verdict, j = within(inp + '#mesh=0', os.path.join(d, f"mesh0_level{l['level']}.obj"), l['bound'], diag)
-            levels_checked += 1
-            open_levels += verdict == 'open'
-            if verdict in ('FAIL', 'error') or l['bound'] > l['eps']:
-                problems.append(f"level {l['level']}: {verdict}, bound {l['bound']}, eps {l['eps']}, "
-                                f"measured [{j.get('hausdorff')}, {j.get('hausdorff_upper')}]")
-            rec['levels'].append({'level': l['level'], 'triangles': l['triangles'], 'eps': l['eps'], 'bound': l['bound'],
-                                  'lower': j.get('hausdorff'), 'upper': j.get('hausdorff_upper'), 'verdict': verdict})
+        for l in (m['levels'] if diag > 0 else []):
+            if l['bound'] > l['eps']:
+                problems.append(f"level {l['level']}: bound {l['bound']} over eps {l['eps']}")
+            rec['levels'].append(measure(inp + '#mesh=0', os.path.join(d, f"mesh0_level{l['level']}.obj"), l['bound'], diag,
+                                         {'level': l['level'], 'triangles': l['triangles'], 'eps': l['eps'], 'bound': l['bound']},
+                                         problems, f"level {l['level']}"))
     if a.main_job:
         draco = ['--draco'] if seed % 2 else []
         out = os.path.join(d, 'out.glb')
         r = subprocess.run([a.lodpipe, inp, '-o', out, '-q', '--levels', ladder, *extra, *draco], capture_output=True, text=True)
-        rec['main_job'] = {'draco': bool(draco), 'rc': r.returncode, 'stderr': r.stderr.strip()[-300:], 'levels': []}
-        if r.returncode == 3 and draco and len(r.stderr.strip().splitlines()) == 1 and not os.path.exists(out):
-            refusals += 1
-        elif r.returncode != 0:
+        refused = r.returncode == 3 and bool(draco) and len(r.stderr.strip().splitlines()) == 1 and not os.path.exists(out)
+        rec['main_job'] = {'draco': bool(draco), 'rc': r.returncode, 'refused': refused, 'stderr': r.stderr.strip()[-300:],
+                           'levels': []}
+        refusals += refused
+        if r.returncode != 0 and not refused:
             problems.append(f"main job{' --draco' if draco else ''} exit {r.returncode}: {r.stderr.strip()[-200:]}")
-        else:
+        elif r.returncode == 0:
             with open(out, 'rb') as f:
                 glb = f.read()
             length = int.from_bytes(glb[12:16], 'little')
             doc = json.loads(glb[20:20 + length])
             record = ((doc['nodes'][0].get('extras') or {}).get('lodpipe') or {}).get('levels', [])
-            diag = json.load(open(os.path.join(d, 'simplify.json')))['meshes'][0]['diagonal']
             for lv in (record if diag > 0 else []):
-                verdict, j = within(inp + '#mesh=0', f"{out}#node={lv['node']}", lv['error'], diag)
-                levels_checked += 1
-                open_levels += verdict == 'open'
-                if verdict in ('FAIL', 'error'):
-                    problems.append(f"main job node {lv['node']}: {verdict}, recorded error {lv['error']}, "
-                                    f"measured [{j.get('hausdorff')}, {j.get('hausdorff_upper')}]")
-                rec['main_job']['levels'].append({'node': lv['node'], 'triangles': lv['triangles'], 'error': lv['error'],
-                                                  'lower': j.get('hausdorff'), 'upper': j.get('hausdorff_upper'), 'verdict': verdict})
+                rec['main_job']['levels'].append(measure(inp + '#mesh=0', f"{out}#node={lv['node']}", lv['error'], diag,
+                                                         {'node': lv['node'], 'triangles': lv['triangles'], 'error': lv['error']},
+                                                         problems, f"main job node {lv['node']} (recorded error)"))
     rec['problems'] = problems
     log.write(json.dumps(rec) + '\n')
     log.flush()
@@ -122,7 +128,7 @@ for seed in seeds:
         opened += [f"node {x['node']}" for x in main['levels'] if x['verdict'] == 'open']
     print(f"seed {seed} {desc['kind']} {desc['triangles']} triangles, levels {ladder} {' '.join(extra)}: "
           f"{[x['triangles'] for x in rec['levels']]}"
-          f"{'' if not main else ', main job' + (' --draco' if main['draco'] else '') + ': ' + ('refused (exit 3)' if main['rc'] == 3 else str([x['triangles'] for x in main['levels']]))}"
+          f"{'' if not main else ', main job' + (' --draco' if main['draco'] else '') + ': ' + ('refused (exit 3)' if main['refused'] else str([x['triangles'] for x in main['levels']]))}"
           f" {'; '.join(problems) if problems else 'ok'}"
           f"{f' (open: levels {opened})' if opened else ''}", flush=True)
 
