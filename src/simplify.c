@@ -644,9 +644,20 @@ static int add_candidate_face(const sim *s, scratch *sc, uint32_t f, uint32_t u,
     return room ? u32_push(&sc->cand_faces, f) : 0;
 }
 
-/* Link condition (Dey et al.): the common neighbours of u and v are exactly
- * the far corners of the faces on edge (u, v); plus a degree floor so that no
- * vertex is left with fewer than 3 faces. */
+/* Link condition (Dey et al.), with a border closed by a cone to one extra
+ * vertex w: Lk(u) n Lk(v) = Lk(uv). Its vertex part is that the common
+ * neighbours of u and v are exactly the far corners of the faces on edge
+ * (u, v) (w is common only when uv is a border edge, which the kinds ensure:
+ * a border vertex moves only along its border). Its edge part: no edge xy in
+ * both links, i.e. no faces uxy and vxy. For an interior far corner a, that
+ * is a with three faces (its link the triangle u v b); for a border one, the
+ * edge aw: the faces on au and av both borders, a with one face. So the
+ * floor is 4 faces for an interior far corner and 2 for a border one; a
+ * locked one (perhaps non-manifold) keeps the interior floor. v keeps at
+ * least 3 faces, or 1 on a border, which the condition implies for a
+ * manifold v and guards a locked one. */
+static uint32_t far_corner_floor(const sim *s, uint32_t x) { return s->w->vertex_kind[x] == WELD_BORDER ? 2 : 4; }
+
 static int link_ok(const sim *s, scratch *sc, uint32_t u, const neighbour *e)
 {
     const uint32_t v = e->x;
@@ -669,12 +680,12 @@ static int link_ok(const sim *s, scratch *sc, uint32_t u, const neighbour *e)
     if (common != e->count) return 0;
     /* faces left around v and around the far corners */
     size_t v_after = sc->faces_v.size - e->count + (sc->faces_u.size - e->count);
-    if (v_after < 3) return 0;
+    if (v_after < (s->w->vertex_kind[v] == WELD_BORDER ? 1u : 3u)) return 0;
     for (uint32_t i = 0; i < e->count; ++i) {
         uint32_t f = e->face[i], far = NONE;
         for (int k = 0; k < 3; ++k)
             if (s->corner_vertex[3 * f + k] != u && s->corner_vertex[3 * f + k] != v) far = s->corner_vertex[3 * f + k];
-        if (faces_around(s, far) < 4) return 0;
+        if (faces_around(s, far) < far_corner_floor(s, far)) return 0;
     }
     (void)u;
     return 1;

@@ -15,6 +15,12 @@ The seed picks a kind, each a case the certificate must not be fooled by (DESIGN
   crumple  a folded sheet that intersects itself
   tube     a long open cylinder whose radius is near eps
   fins     three sheets on one edge (non-manifold) plus duplicated faces
+  slits    an open sheet cut by slits about as wide as eps and perforated by holes of one
+           cell (border loops close together, and vertices where two holes touch)
+  slivers  needle and very obtuse triangles: a fan or a polar grid of many thin sectors, or
+           a strip between a finely and a coarsely divided edge, over a height field
+  book     one sheet folded back over itself, its two pages a gap about as wide as eps apart
+           (an open thin part: each page must stay covered by itself)
 then, on some seeds, a material split into two primitives (seams), a scale of 1e-3 or 1e3
 and a move 1e5 units from the origin (where float32 has few digits left; with the scale
 1e-3 as well, the mesh collapses to a point in float32: a degenerate input that must get
@@ -90,7 +96,8 @@ def spikes(rnd, v, count, amp, normal_of):
 
 def make(seed):
     rnd = random.Random(seed)
-    kind = rnd.choice(['sphere', 'terrain', 'plate', 'shells', 'grooves', 'crumple', 'tube', 'fins'])
+    kind = rnd.choice(['sphere', 'terrain', 'plate', 'shells', 'grooves', 'crumple', 'tube', 'fins', 'slits', 'slivers',
+                       'book'])
     prims = None
     if kind == 'sphere':
         v, f = icosphere(rnd.choice([4, 5]))
@@ -159,6 +166,68 @@ def make(seed):
             for j in range(m):
                 a, b = i * m + j, i * m + (j + 1) % m
                 f += [(a, b, b + m), (a, b + m, a + m)]
+    elif kind == 'slits':
+        n = rnd.choice([40, 60, 80])
+        v, f = grid(n, n)
+        gone = set()  # cells (i, j) cut out
+        for _ in range(rnd.randint(2, 6)):  # a slit one cell wide along x or y
+            j, i0 = rnd.randrange(1, n - 1), rnd.randrange(0, n // 2)
+            along_x = rnd.random() < 0.5
+            for i in range(i0, min(n, i0 + rnd.randint(n // 4, n - 1))):
+                gone.add((i, j) if along_x else (j, i))
+        for _ in range(rnd.randint(0, 40)):  # holes of one cell, some touching at a corner
+            gone.add((rnd.randrange(n), rnd.randrange(n)))
+        f = [t for k, t in enumerate(f) if ((k // 2) % n, (k // 2) // n) not in gone]
+        nf = noise_fn(rnd, rnd.randint(1, 4))
+        amp = rnd.choice([0.01, 0.05, 0.2])
+        for p in v:
+            p[2] = amp * nf(p)
+    elif kind == 'slivers':
+        shape = rnd.choice(['fan', 'polar', 'strip'])
+        if shape == 'strip':  # a fine edge of m points against a coarse one of k
+            m, k = rnd.choice([300, 800]), rnd.choice([2, 5, 20])
+            v = [[i / m, 0.0, 0.0] for i in range(m + 1)] + [[i / k, 0.2, 0.0] for i in range(k + 1)]
+            f, i, j = [], 0, 0
+            while i < m or j < k:  # advance the side that lags behind
+                if j == k or (i < m and (i + 1) / m <= (j + 1) / k):
+                    f.append((i, i + 1, m + 1 + j))
+                    i += 1
+                else:
+                    f.append((i, m + 2 + j, m + 1 + j))
+                    j += 1
+        else:  # sectors around the centre: a fan (one ring) or a polar grid of a few rings
+            sectors, rings = rnd.choice([200, 600, 1500]), (1 if shape == 'fan' else rnd.choice([2, 4]))
+            v = [[0.0, 0.0, 0.0]] + [[r / rings * math.cos(2 * math.pi * t / sectors),
+                                      r / rings * math.sin(2 * math.pi * t / sectors), 0.0]
+                                     for r in range(1, rings + 1) for t in range(sectors)]
+            f = [(0, 1 + t, 1 + (t + 1) % sectors) for t in range(sectors)]
+            for r in range(1, rings):
+                a0, b0 = 1 + (r - 1) * sectors, 1 + r * sectors
+                for t in range(sectors):
+                    t1 = (t + 1) % sectors
+                    f += [(a0 + t, b0 + t, b0 + t1), (a0 + t, b0 + t1, a0 + t1)]
+        nf = noise_fn(rnd, rnd.randint(1, 4))
+        amp = rnd.choice([0.005, 0.03, 0.1])
+        for p in v:
+            p[2] = amp * nf(p)
+    elif kind == 'book':  # u runs along the sheet: the lower page, a half circle of radius r, the upper page back
+        n = rnd.choice([40, 70])
+        v, f = grid(n, n // 2)
+        gap = rnd.choice([0.002, 0.01, 0.03])
+        r, page = gap / 2, 0.5
+        length = 2 * page + math.pi * r
+        nf = noise_fn(rnd, 2)
+        bend = rnd.choice([0, 0.05])
+        for p in v:
+            u, y = p[0] * length, p[1]
+            if u < page:
+                x, z = u, 0.0
+            elif u < page + math.pi * r:
+                th = (u - page) / r
+                x, z = page + r * math.sin(th), r - r * math.cos(th)
+            else:
+                x, z = page - (u - page - math.pi * r), 2 * r
+            p[0], p[2] = x, z + bend * nf([x, y, 0])
     else:  # fins: non-manifold edges (three sheets on one edge) and duplicate faces
         n = rnd.choice([30, 50])
         v1, f1 = grid(n, n)

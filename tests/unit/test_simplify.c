@@ -1720,6 +1720,60 @@ static void test_euler_closed(void)
     mesh_free(&m);
 }
 
+/* ---- open meshes whose vertices have few faces ----------------------------- */
+
+/* The link condition's floors where a border is near: a disc fanned from its
+ * centre (each rim vertex has 2 faces, so every collapse leaves a rim vertex
+ * with 1 face: the old floor of 3 faces everywhere refused them all and the
+ * disc kept its 200 triangles at every level), a strip one cell wide (every
+ * vertex on the border) and a lone triangle (nothing may go: its collapse is
+ * the one the border floor refuses). Each stays a disc at every level, within
+ * its bound. */
+static void test_border_floors(void)
+{
+    mesh m;
+    mesh_init(&m);
+    const uint32_t sectors = 200;
+    const uint32_t centre = mesh_vertex(&m, 0, 0, 0);
+    for (uint32_t t = 0; t < sectors; ++t) {
+        const double a = 2.0 * M_PI * t / sectors;
+        mesh_vertex(&m, cos(a), sin(a), 0.02 * sin(3.0 * a));
+    }
+    for (uint32_t t = 0; t < sectors; ++t) mesh_tri(&m, centre, 1 + t, 1 + (t + 1) % sectors);
+    run rn;
+    if (run_simplify(&rn, &m, default_ladder, 4, 0, 0) == LP_OK) {
+        check_structure("fan", &rn);
+        check_topology("fan", &rn, 1, 1);
+        check_levels("fan", &rn, 8);
+        CHECK(rn.r.levels[0].triangle_count < sectors / 4, "the fan simplifies at 1 %%: %u of %u",
+              rn.r.levels[0].triangle_count, sectors);
+    }
+    run_free(&rn);
+    mesh_free(&m);
+
+    mesh_init(&m);
+    mesh_grid(&m, 60, 1, 0, 1, 0, 0.02, NULL, NULL);
+    if (run_simplify(&rn, &m, default_ladder, 4, 0, 0) == LP_OK) {
+        check_structure("strip", &rn);
+        check_topology("strip", &rn, 1, 1);
+        check_levels("strip", &rn, 8);
+        CHECK(rn.r.levels[3].triangle_count < rn.w.triangle_count / 4, "the strip simplifies: %u of %u",
+              rn.r.levels[3].triangle_count, rn.w.triangle_count);
+    }
+    run_free(&rn);
+    mesh_free(&m);
+
+    mesh_init(&m);
+    mesh_tri(&m, mesh_vertex(&m, 0, 0, 0), mesh_vertex(&m, 1, 0, 0), mesh_vertex(&m, 0.5, 0.01, 0));
+    if (run_simplify(&rn, &m, default_ladder, 4, 0, 0) == LP_OK) {
+        check_topology("triangle", &rn, 1, 1);
+        for (uint32_t k = 0; k < rn.r.level_count; ++k)
+            CHECK(rn.r.levels[k].triangle_count == 1, "triangle level %u: %u triangles", k, rn.r.levels[k].triangle_count);
+    }
+    run_free(&rn);
+    mesh_free(&m);
+}
+
 /* ---- translation by 1e5 ------------------------------------------------------- */
 
 /* The same bumpy sphere at the origin and moved by (1e5, 1e5, 1e5): every
@@ -2050,6 +2104,7 @@ static void run_cases(void)
     RUN(test_sawtooth_border);
     RUN(test_materials);
     RUN(test_euler_closed);
+    RUN(test_border_floors);
     RUN(test_translated_1e5);
     RUN(test_thread_count_invariance);
     RUN(test_verify_mode);
