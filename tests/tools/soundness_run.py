@@ -4,7 +4,7 @@ adversarial mesh (adversarial_mesh.py), `lodpipe simplify` with a ladder and pla
 picked by the seed, and every level measured against the INPUT by the independent CGAL
 tool (`hausdorff --within`, a proof either way or "open").
 
-usage: soundness_run.py FIRST LAST [--dir DIR] [--lodpipe BIN] [--hausdorff BIN] [--main-job]
+usage: soundness_run.py FIRST LAST [--dir DIR] [--lodpipe BIN] [--hausdorff BIN] [--timeout S] [--main-job]
        soundness_run.py --seeds S1,S2,... [options]
   --main-job also runs `lodpipe IN -o OUT.glb`, and with --draco on every other seed, and
   measures every LOD node of the output (LOD0 too) against the input within the error its
@@ -14,7 +14,8 @@ usage: soundness_run.py FIRST LAST [--dir DIR] [--lodpipe BIN] [--hausdorff BIN]
   and one JSON line per seed in DIR/log.jsonl.
 Prints a line per seed; exit 1 when lodpipe failed on a seed or a level was proven
 farther from the input than its certified bound (or than eps), 0 otherwise ("open"
-levels, which the measure could not settle, are listed and counted but do not fail).
+levels, which the measure could not settle, or not within --timeout seconds, default 600,
+are listed and counted but do not fail).
 Run from the repository root after `make all hausdorff`."""
 import argparse, json, os, random, subprocess, sys, time
 
@@ -27,6 +28,7 @@ ap.add_argument('--main-job', action='store_true')
 ap.add_argument('--dir', default='/tmp/lodpipe-soundness')
 ap.add_argument('--lodpipe', default='build/lodpipe')
 ap.add_argument('--hausdorff', default='build/hausdorff/hausdorff')
+ap.add_argument('--timeout', type=float, default=600, help='seconds per CGAL run (then the level is "open")')
 a = ap.parse_args()
 if a.seeds:
     seeds = [int(x) for x in a.seeds.split(',')]
@@ -50,8 +52,11 @@ def within(inp, level, bound, diag):
     # finer than 1e-9 of the diagonal, far below the 1e-7 allowed for printing (a level certified
     # exact, bound 2e-9, 1e5 from the origin, kept the tool refining for 11 minutes and 5 GB)
     for err in (max(limit * 1e-4, 1e-9 * diag), 2.5e-8 * diag):
-        h = subprocess.run([a.hausdorff, '--within', repr(rel), '--err-abs', repr(max(err, limit * 1e-9)),
-                            '--max-work', '2e9', inp, level], capture_output=True, text=True)
+        try:
+            h = subprocess.run([a.hausdorff, '--within', repr(rel), '--err-abs', repr(max(err, limit * 1e-9)),
+                                '--max-work', '2e9', inp, level], capture_output=True, text=True, timeout=a.timeout)
+        except subprocess.TimeoutExpired:  # undecided, as when the tool gives up: listed, not failed
+            return 'open', {'timeout': a.timeout}
         try:
             j = json.loads(h.stdout.strip().splitlines()[-1])
         except (IndexError, ValueError):
