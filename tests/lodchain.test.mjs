@@ -41,7 +41,7 @@ import os from 'node:os';
 import path from 'node:path';
 import { spawnSync } from 'node:child_process';
 import {
-  corpusPath, describeRun, lodpipeBin, manifestInputs, readRaw, repoRoot, runHealthProblems, runLodpipe, successStderrProblems, tempDir, skipWithoutBinary, isExecutable,
+  accessorElementBytes, corpusPath, describeRun, lodpipeBin, manifestInputs, readRaw, repoRoot, runHealthProblems, runLodpipe, successStderrProblems, tempDir, skipWithoutBinary, isExecutable,
 } from './lib/gltf.mjs';
 import {
   CHAIN_ASPECTS, DEFAULT_CAMERA, DEFAULT_LADDER, HAUSDORFF, analyzeChain, compareReorderedPrimitive, dropRuleProblems, edgeCensus, expectedSwitching,
@@ -125,12 +125,10 @@ async function assertAspects(t, res, title, keys = CHAIN_ASPECTS.map(([k]) => k)
 /** Bytes between the elements of strided accessors: count x (byteStride - element size) where the
  * view's byteStride is larger than the element. */
 function strideGapBytes(json) {
-  const componentBytes = { 5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4 };
-  const components = { SCALAR: 1, VEC2: 2, VEC3: 3, VEC4: 4, MAT2: 4, MAT3: 9, MAT4: 16 };
   let gaps = 0;
   for (const a of json.accessors || []) {
     const stride = json.bufferViews?.[a.bufferView]?.byteStride;
-    const element = (componentBytes[a.componentType] || 0) * (components[a.type] || 0);
+    const element = accessorElementBytes(a);
     if (a.bufferView !== undefined && stride > element && element > 0) gaps += a.count * (stride - element);
   }
   return gaps;

@@ -280,6 +280,15 @@ const COMPONENT_SIZE = { 5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4 };
 const COMPONENT_ARRAY = { 5120: Int8Array, 5121: Uint8Array, 5122: Int16Array, 5123: Uint16Array, 5125: Uint32Array, 5126: Float32Array };
 const TYPE_SHAPE = { SCALAR: [1, 1], VEC2: [1, 2], VEC3: [1, 3], VEC4: [1, 4], MAT2: [2, 2], MAT3: [3, 3], MAT4: [4, 4] }; // [columns, rows]
 
+/** Bytes one element of accessor acc takes in a tightly packed view (matrix columns padded to 4 bytes); 0 when unknown. */
+export function accessorElementBytes(acc) {
+  const csize = COMPONENT_SIZE[acc.componentType];
+  const shape = TYPE_SHAPE[acc.type];
+  if (!csize || !shape) return 0;
+  const [cols, rows] = shape;
+  return cols > 1 ? cols * Math.ceil((rows * csize) / 4) * 4 : rows * csize;
+}
+
 /**
  * Read a .gltf or .glb into { file, dir, kind, json, buffers[] } plus accessors to the binary data:
  *   viewBytes(i), imageBytes(i) -> { bytes, source }, accessorBytes(i) -> packed element bytes (sparse applied).
