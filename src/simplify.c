@@ -652,11 +652,11 @@ static int add_candidate_face(const sim *s, scratch *sc, uint32_t f, uint32_t u,
  * both links, i.e. no faces uxy and vxy. For an interior far corner a, that
  * is a with three faces (its link the triangle u v b); for a border one, the
  * edge aw: the faces on au and av both borders, a with one face. So the
- * floor is 4 faces for an interior far corner and 2 for a border one; a
- * locked one (perhaps non-manifold) keeps the interior floor. v keeps at
- * least 3 faces, or 1 on a border, which the condition implies for a
- * manifold v and guards a locked one. */
-static uint32_t far_corner_floor(const sim *s, uint32_t x) { return s->w->vertex_kind[x] == WELD_BORDER ? 2 : 4; }
+ * far corner must keep at least 3 faces inside the surface and 1 on a
+ * border; a locked one (perhaps non-manifold) keeps the interior floor. v
+ * keeps as many, which the condition implies for a manifold v and guards a
+ * locked one. */
+static uint32_t faces_left_floor(const sim *s, uint32_t x) { return s->w->vertex_kind[x] == WELD_BORDER ? 1 : 3; }
 
 static int link_ok(const sim *s, scratch *sc, uint32_t u, const neighbour *e)
 {
@@ -680,12 +680,12 @@ static int link_ok(const sim *s, scratch *sc, uint32_t u, const neighbour *e)
     if (common != e->count) return 0;
     /* faces left around v and around the far corners */
     size_t v_after = sc->faces_v.size - e->count + (sc->faces_u.size - e->count);
-    if (v_after < (s->w->vertex_kind[v] == WELD_BORDER ? 1u : 3u)) return 0;
+    if (v_after < faces_left_floor(s, v)) return 0;
     for (uint32_t i = 0; i < e->count; ++i) {
         uint32_t f = e->face[i], far = NONE;
         for (int k = 0; k < 3; ++k)
             if (s->corner_vertex[3 * f + k] != u && s->corner_vertex[3 * f + k] != v) far = s->corner_vertex[3 * f + k];
-        if (faces_around(s, far) < far_corner_floor(s, far)) return 0;
+        if (faces_around(s, far) - 1 < faces_left_floor(s, far)) return 0; /* f counts: at least 1 */
     }
     (void)u;
     return 1;
