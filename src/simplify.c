@@ -3054,8 +3054,13 @@ static int removal_ring(const sim *s, scratch *sc, uint32_t u, removal *rm)
 
 /* The hole's rules and costs, each triangle's decided once for all the
  * triangulations that use it. A diagonal x_i x_j may be made when it is no
- * edge of the mesh yet (else the edge would have four faces) and does not
- * join two border vertices. A triangle is forbidden when it is degenerate or
+ * edge of the mesh yet (else the edge would have four faces); with the ring
+ * vertices' face floors (removal_degrees) that is the whole condition for
+ * the surface to stay a manifold with the same borders: each ring vertex's
+ * link keeps its ends and gets new middle vertices, which must not be in it
+ * already (an existing edge), and stays a cycle of 3 or more (a path, and a
+ * cycle through the border's cone vertex, on a border; a diagonal between
+ * two border vertices is no border edge, so it is allowed). A triangle is forbidden when it is degenerate or
  * turns from an old face it shares a corner with beyond the flip guard; else
  * it costs its area times the squared distance from u to its plane, so the
  * cheapest triangulations keep the surface closest to where u was. And near
@@ -3067,7 +3072,6 @@ static int removal_ring(const sim *s, scratch *sc, uint32_t u, removal *rm)
 static void removal_costs(const sim *s, removal *rm)
 {
     const uint32_t n = rm->hole.n;
-    const uint8_t *kind = s->w->vertex_kind;
     const int32_t material = s->face_material[rm->face[0]];
     double pu[3];
     vertex_position(s, rm->u, pu);
@@ -3079,8 +3083,7 @@ static void removal_costs(const sim *s, removal *rm)
     const double accept = s->eps * (1.0 - CERT_MARGIN);
     for (uint32_t i = 0; i < n; ++i)
         for (uint32_t j = i + 1; j < n; ++j)
-            rm->hole.allowed[i][j] = !(kind[rm->ring[i]] == WELD_BORDER && kind[rm->ring[j]] == WELD_BORDER) &&
-                                     !has_edge(s, rm->ring[i], rm->ring[j]);
+            rm->hole.allowed[i][j] = !has_edge(s, rm->ring[i], rm->ring[j]);
     for (uint32_t i = 0; i < n; ++i)
         for (uint32_t j = i + 1; j < n; ++j)
             for (uint32_t k = j + 1; k < n; ++k) {
@@ -3115,14 +3118,16 @@ static int removal_near(const removal *rm, const holefill *t)
     return near;
 }
 
-/* 1 when every ring vertex keeps 3 faces or more. */
+/* 1 when every ring vertex keeps the faces a vertex must keep (link_ok's
+ * floor: 3 inside, 1 on a border, where a triangulation of the hole always
+ * leaves one). */
 static int removal_degrees(const sim *s, const removal *rm, const holefill *t)
 {
     for (uint32_t i = 0; i < rm->hole.n; ++i) {
         uint32_t gained = 0;
         for (uint32_t k = 0; k + 2 < rm->hole.n; ++k)
             gained += t->tri[k][0] == i || t->tri[k][1] == i || t->tri[k][2] == i;
-        if (faces_around(s, rm->ring[i]) - 2 + gained < 3) return 0;
+        if (faces_around(s, rm->ring[i]) - 2 + gained < faces_left_floor(s, rm->ring[i])) return 0;
     }
     return 1;
 }

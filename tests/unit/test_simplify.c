@@ -1722,6 +1722,14 @@ static void test_euler_closed(void)
 
 /* ---- open meshes whose vertices have few faces ----------------------------- */
 
+/* vertices removed with another triangulation of their hole, over all levels */
+static uint64_t removals_of(const run *rn)
+{
+    uint64_t n = 0;
+    for (uint32_t k = 0; k < rn->r.level_count; ++k) n += rn->r.levels[k].stats.removals;
+    return n;
+}
+
 /* The link condition's floors where a border is near: a disc fanned from its
  * centre (each rim vertex has 2 faces, so every collapse leaves a rim vertex
  * with 1 face: the old floor of 3 faces everywhere refused them all and the
@@ -1759,6 +1767,31 @@ static void test_border_floors(void)
         check_levels("strip", &rn, 8);
         CHECK(rn.r.levels[3].triangle_count < rn.w.triangle_count / 4, "the strip simplifies: %u of %u",
               rn.r.levels[3].triangle_count, rn.w.triangle_count);
+    }
+    run_free(&rn);
+    mesh_free(&m);
+
+    /* A crown: a hexagon fanned from its centre, the odd corners pulled in to
+     * 0.6 and raised by 0.025, every corner on the border with 2 faces. At 1 %
+     * no collapse of the centre is certified, but a vertex removal is (4
+     * triangles); it needs a diagonal between two border vertices and leaves
+     * a border corner 1 face, which the removal's rules forbade until they
+     * took link_ok's floors (found by a sweep over such crowns: this one
+     * kept its 6 triangles then). The checker is on. */
+    mesh_init(&m);
+    const uint32_t hub = mesh_vertex(&m, 0, 0, 0);
+    for (uint32_t t = 0; t < 6; ++t) {
+        const double a = 2.0 * M_PI * t / 6, r = t % 2 ? 0.6 : 1.0;
+        mesh_vertex(&m, r * cos(a), r * sin(a), t % 2 ? 0.025 : 0.0);
+    }
+    for (uint32_t t = 0; t < 6; ++t) mesh_tri(&m, hub, 1 + t, 1 + (t + 1) % 6);
+    if (run_simplify(&rn, &m, default_ladder, 4, 0, 1) == LP_OK) {
+        check_structure("crown", &rn);
+        check_topology("crown", &rn, 1, 1);
+        check_levels("crown", &rn, 8);
+        CHECK(rn.r.levels[0].triangle_count == 4 && removals_of(&rn) == 1,
+              "the crown's centre is removed at 1 %%: %u triangles, %llu removals", rn.r.levels[0].triangle_count,
+              (unsigned long long)removals_of(&rn));
     }
     run_free(&rn);
     mesh_free(&m);
@@ -1921,13 +1954,6 @@ static void test_verify_mode(void)
 }
 
 /* ---- vertex removal with another triangulation of the hole ---------------------- */
-
-static uint64_t removals_of(const run *rn)
-{
-    uint64_t n = 0;
-    for (uint32_t k = 0; k < rn->r.level_count; ++k) n += rn->r.levels[k].stats.removals;
-    return n;
-}
 
 /* Where no collapse is certified, a vertex is removed with another
  * triangulation of its hole (simplify.h). On a bumpy sphere and a torus at
