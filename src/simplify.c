@@ -3060,15 +3060,15 @@ static int removal_ring(const sim *s, scratch *sc, uint32_t u, removal *rm)
  * link keeps its ends and gets new middle vertices, which must not be in it
  * already (an existing edge), and stays a cycle of 3 or more (a path, and a
  * cycle through the border's cone vertex, on a border; a diagonal between
- * two border vertices is no border edge, so it is allowed). A triangle is forbidden when it is degenerate or
- * turns from an old face it shares a corner with beyond the flip guard; else
- * it costs its area times the squared distance from u to its plane, so the
- * cheapest triangulations keep the surface closest to where u was. And near
- * records whether u, a point of the original, is within eps of it: a
- * triangulation is tried only when one of its faces is (else the originals
- * around u would need faces farther out; measured on the bunny at 1/16 %:
- * 10,981 triangles against 10,989 without this test, and 1.4 s spent on
- * removals against 2.4 s). */
+ * two border vertices is no border edge, so it is allowed). A triangle is
+ * forbidden when it is degenerate or turns from an old face it shares a
+ * corner with beyond the flip guard; else it costs its area times the
+ * squared distance from u to its plane, so the cheapest triangulations keep
+ * the surface closest to where u was. And near records whether u, a point
+ * of the original, is within eps of it: a triangulation is tried only when
+ * one of its faces is (else the originals around u would need faces farther
+ * out; measured on the bunny at 1/16 %: 10,981 triangles against 10,989
+ * without this test, and 1.4 s spent on removals against 2.4 s). */
 static void removal_costs(const sim *s, removal *rm)
 {
     const uint32_t n = rm->hole.n;
