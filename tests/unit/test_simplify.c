@@ -1730,13 +1730,14 @@ static uint64_t removals_of(const run *rn)
     return n;
 }
 
-/* The link condition's floors where a border is near: a disc fanned from its
- * centre (each rim vertex has 2 faces, so every collapse leaves a rim vertex
- * with 1 face: the old floor of 3 faces everywhere refused them all and the
- * disc kept its 200 triangles at every level), a strip one cell wide (every
- * vertex on the border) and a lone triangle (nothing may go: its collapse is
- * the one the border floor refuses). Each stays a disc at every level, within
- * its bound. */
+/* The link condition's floors where a border is near, for collapses and
+ * vertex removals: a disc fanned from its centre (each rim vertex has 2
+ * faces, so every collapse leaves a rim vertex with 1 face: the old floor of
+ * 3 faces everywhere refused them all and the disc kept its 200 triangles at
+ * every level), a crown whose centre only a removal can take, a strip one
+ * cell wide (every vertex on the border) and a lone triangle (nothing may
+ * go: its collapse is the one the border floor refuses). Each stays a disc
+ * at every level, within its bound. */
 static void test_border_floors(void)
 {
     mesh m;
