@@ -183,7 +183,7 @@ fuzz: fuzz-build
 	done
 
 # ---- benchmarks: quality and speed against meshoptimizer, into bench/RESULTS.md --------
-# Measurements, not tests (about 75 minutes on this 2-core machine: run.py's quality part
+# Measurements, not tests (27 to 75 minutes on the 2-core hosts seen: run.py's quality part
 # is most of it; batch.py, draco.py and morph.py take a few minutes each).
 bench: deps
 	$(MAKE) all hausdorff
