@@ -121,7 +121,6 @@ async function assertAspects(t, res, title, keys = CHAIN_ASPECTS.map(([k]) => k)
   }
 }
 
-/** Length of a GLB's JSON chunk. */
 /** Bytes between the elements of strided accessors: count x (byteStride - element size) where the
  * view's byteStride is larger than the element. */
 function strideGapBytes(json) {
@@ -134,6 +133,7 @@ function strideGapBytes(json) {
   return gaps;
 }
 
+/** Length of a GLB's JSON chunk. */
 function glbJsonChunkBytes(file) {
   const b = fs.readFileSync(file);
   return b.length >= 20 && b.readUInt32LE(0) === 0x46546c67 ? b.readUInt32LE(12) : b.length;
@@ -355,36 +355,37 @@ for (const asset of assets) {
       const conv = path.join(run.dir, `convert_baseline${kind}`);
       const rc = runLodpipe(['convert', asset.file, conv], { timeout: MAIN_TIMEOUT_MS });
       let sizeProblem = null;
-      if (rc.status === 0 && kind === '.glb') {
+      if (rc.status === 0) {
         const convJson = readRaw(conv).json;
-        const base = fileSetBytes(conv, convJson);
-        const per = res.stats.perLevelIndexBytes.map((b, k) => `LOD${k + 1} +${b} B`).join(', ');
         const outJson = readRaw(run.out).json;
-        const jsonGrowth = glbJsonChunkBytes(run.out) - glbJsonChunkBytes(conv);
-        const added = fs.statSync(run.out).size - fs.statSync(conv).size;
         // the reorder moves a vertex accessor's data into a packed view of its own: the gaps a
         // byteStride left between its elements go (simple_skin: JOINTS_0, 8-byte elements 16 apart)
         const repacked = strideGapBytes(convJson) - strideGapBytes(outJson);
-        const explained = res.stats.newIndexBytes + jsonGrowth - repacked;
         const padding = 4 * (res.stats.newAccessors + 1);
-        const line = `${asset.rel}: input ${res.stats.inBytes} B, convert ${base} B, with chains ${res.stats.outBytes} B: ` +
-          `+${res.stats.outBytes - base} B (${fmt((100 * (res.stats.outBytes - base)) / base, 3)} % over convert, ${fmt(res.stats.outBytes / res.stats.inBytes, 4)} x input); ` +
-          `index data ${per || 'none'}; JSON chunk +${jsonGrowth} B`;
-        overhead.push(line);
-        t.diagnostic(`size overhead: ${line}`);
-        if (added < explained || added > explained + padding) {
-          sizeProblem = `the .glb grew by ${added} B over lodpipe convert's, but new index data (${res.stats.newIndexBytes} B) and JSON (${jsonGrowth} B) ` +
-            `explain ${explained} B (less ${repacked} B of stride gaps repacked, + at most ${padding} B of padding): ${added - explained} B unexplained (${outJson.bufferViews?.length} bufferViews vs ${convJson.bufferViews?.length})`;
-        }
-      } else if (rc.status === 0) {
-        // .gltf: the JSON file may change in any way; the buffers grow by the new index data and padding only
-        const bufferBytes = (file) => (readRaw(file).json.buffers || []).reduce((acc, b) => acc + (b.byteLength || 0), 0);
-        const added = bufferBytes(run.out) - bufferBytes(conv);
-        const padding = 4 * (res.stats.newAccessors + 1);
-        const expected = res.stats.newIndexBytes - (strideGapBytes(readRaw(conv).json) - strideGapBytes(readRaw(run.out).json));
-        t.diagnostic(`size overhead: ${asset.rel} -> .gltf: buffers +${added} B, new index data ${res.stats.newIndexBytes} B`);
-        if (added < expected || added > expected + padding) {
-          sizeProblem = `the buffers grew by ${added} B over lodpipe convert's, but new index data less the stride gaps repacked explain ${expected} B (+ at most ${padding} B of padding)`;
+        if (kind === '.glb') {
+          const base = fileSetBytes(conv, convJson);
+          const per = res.stats.perLevelIndexBytes.map((b, k) => `LOD${k + 1} +${b} B`).join(', ');
+          const jsonGrowth = glbJsonChunkBytes(run.out) - glbJsonChunkBytes(conv);
+          const added = fs.statSync(run.out).size - fs.statSync(conv).size;
+          const explained = res.stats.newIndexBytes + jsonGrowth - repacked;
+          const line = `${asset.rel}: input ${res.stats.inBytes} B, convert ${base} B, with chains ${res.stats.outBytes} B: ` +
+            `+${res.stats.outBytes - base} B (${fmt((100 * (res.stats.outBytes - base)) / base, 3)} % over convert, ${fmt(res.stats.outBytes / res.stats.inBytes, 4)} x input); ` +
+            `index data ${per || 'none'}; JSON chunk +${jsonGrowth} B`;
+          overhead.push(line);
+          t.diagnostic(`size overhead: ${line}`);
+          if (added < explained || added > explained + padding) {
+            sizeProblem = `the .glb grew by ${added} B over lodpipe convert's, but new index data (${res.stats.newIndexBytes} B) and JSON (${jsonGrowth} B) ` +
+              `explain ${explained} B (less ${repacked} B of stride gaps repacked, + at most ${padding} B of padding): ${added - explained} B unexplained (${outJson.bufferViews?.length} bufferViews vs ${convJson.bufferViews?.length})`;
+          }
+        } else {
+          // .gltf: the JSON file may change in any way; the buffers grow by the new index data and padding only
+          const bufferBytes = (json) => (json.buffers || []).reduce((acc, b) => acc + (b.byteLength || 0), 0);
+          const added = bufferBytes(outJson) - bufferBytes(convJson);
+          const expected = res.stats.newIndexBytes - repacked;
+          t.diagnostic(`size overhead: ${asset.rel} -> .gltf: buffers +${added} B, new index data ${res.stats.newIndexBytes} B`);
+          if (added < expected || added > expected + padding) {
+            sizeProblem = `the buffers grew by ${added} B over lodpipe convert's, but new index data less the stride gaps repacked explain ${expected} B (+ at most ${padding} B of padding)`;
+          }
         }
       } else sizeProblem = `the convert baseline failed: ${describeRun(rc)}`;
       await t.test(`size: the ${kind === '.glb' ? '.glb grows' : 'buffers grow'} over lodpipe convert's by exactly the new index data${kind === '.glb' ? ', the JSON' : ''} and padding`, () => assert.equal(sizeProblem, null, sizeProblem));
