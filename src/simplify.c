@@ -687,7 +687,6 @@ static int link_ok(const sim *s, scratch *sc, uint32_t u, const neighbour *e)
             if (s->corner_vertex[3 * f + k] != u && s->corner_vertex[3 * f + k] != v) far = s->corner_vertex[3 * f + k];
         if (faces_around(s, far) - 1 < faces_left_floor(s, far)) return 0; /* f counts: at least 1 */
     }
-    (void)u;
     return 1;
 }
 
