@@ -20,7 +20,7 @@ SHARED  ?= $(abspath ../shared)
 # a machine whose node or compiler came from elsewhere is not asked to install a conflicting
 # package.
 DEBIAN_PACKAGES := pkg-config libtinygltf-dev nlohmann-json3-dev libstb-dev libdraco-dev \
-	libmeshoptimizer-dev libopenmesh-dev libtomlplusplus-dev libcgal-dev libclang-rt-dev
+	libmeshoptimizer-dev libopenmesh-dev libtomlplusplus-dev libcgal-dev libclang-rt-dev exfatprogs exfat-fuse
 DEBIAN_TOOLS := g++:g++ make:make python3:python3 node:nodejs npm:npm clang:clang strace:strace pgrep:procps
 
 CPPFLAGS_COMMON := -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L -Isrc -Ithird_party -I$(BUILD)/gen

@@ -121,6 +121,7 @@ typedef struct batch {
     int progress_shown;
     double start;
     struct stat output_stat;
+    int case_blind; /* OUT_DIR's file system takes a.glb and A.glb for one name (case_blind_folder) */
 } batch;
 
 static char *join_path(const char *dir, const char *name)
@@ -774,8 +775,29 @@ static int refs_from_json(const jsonr *r, uint32_t array, const char *base, file
     return READBACK_OK;
 }
 
+/* The hashes the job reported of the bytes it wrote, one per output: not the
+ * files' hashes now, which could be another job's bytes when two jobs wrote
+ * one file (fail_clashes must see that they differ). */
+static int output_hashes_from_json(const jsonr *r, uint32_t array, file_refs *outputs)
+{
+    if (array == JSONR_NONE || r->tokens[array].type != JSONR_ARRAY || jsonr_size(r, array) != outputs->count)
+        return READBACK_UNREADABLE;
+    for (size_t i = 0; i < outputs->count; ++i) {
+        const uint32_t element = jsonr_element(r, array, (uint32_t)i);
+        if (r->tokens[element].type != JSONR_STRING) return READBACK_UNREADABLE;
+        char *hex = jsonr_string(r, element);
+        if (!hex) return READBACK_NO_MEMORY;
+        const int ok = strlen(hex) == SHA256_HEX - 1 && strspn(hex, "0123456789abcdef") == SHA256_HEX - 1;
+        if (ok) memcpy(outputs->items[i].sha256, hex, SHA256_HEX);
+        free(hex);
+        if (!ok) return READBACK_UNREADABLE;
+    }
+    return READBACK_OK;
+}
+
 /* Reads a finished job's --json summary into j->now: counts, the files it
- * read and wrote (hashed now) and the key. Returns a READBACK_* value. */
+ * read (hashed now) and wrote (with the hashes it reported) and the key.
+ * Returns a READBACK_* value. */
 static int read_job_summary(const batch *b, job *j)
 {
     jsonr r;
@@ -795,13 +817,9 @@ static int read_job_summary(const batch *b, job *j)
     }
     rc = refs_from_json(&r, jsonr_member(&r, 0, "inputs"), b->source_dir, &now->inputs);
     if (!rc) rc = refs_from_json(&r, jsonr_member(&r, 0, "outputs"), b->output_dir, &now->outputs);
+    if (!rc) rc = output_hashes_from_json(&r, jsonr_member(&r, 0, "output_sha256"), &now->outputs);
     if (!rc) rc = compute_key(b, j->rel, now);
     jsonr_free(&r);
-    for (size_t i = 0; !rc && i < now->outputs.count; ++i) {
-        char *path = resolve_ref(b->output_dir, &now->outputs.items[i]);
-        rc = !path ? READBACK_NO_MEMORY : hash_result(sha256_file_hex(path, now->outputs.items[i].sha256));
-        free(path);
-    }
     now->present = !rc;
     return rc;
 }
@@ -893,9 +911,13 @@ static void finish_job(batch *b, job *j, int status)
  * know the same bytes (a texture the two share: output.c leaves an identical
  * file alone). Before the launch a job's names are its outputs when cached,
  * else those its run will write (OUT, the buffers) and the textures its last
- * run wrote (from the manifest); after the jobs, the outputs each one wrote. */
+ * run wrote (from the manifest); after the jobs, the outputs each one wrote.
+ * Two different names can be one file: a folder of OUT_DIR that is a symlink
+ * to another, or a case-insensitive file system (a.glb and A.glb). So claims
+ * are compared by the file a name reaches (claim_files), not by the name. */
 typedef struct claim {
-    char *name;         /* relative to OUT_DIR */
+    char *name;              /* relative to OUT_DIR */
+    const char *file;        /* the smallest name that reaches the same file (claim_files) */
     char sha256[SHA256_HEX]; /* "" when the bytes are not known before the job */
     size_t job;
 } claim;
@@ -926,6 +948,7 @@ static void claim_add(claims *c, size_t job, char *name, const char *sha256)
     }
     claim *k = &c->items[c->count++];
     k->name = name;
+    k->file = name;
     k->job = job;
     snprintf(k->sha256, sizeof k->sha256, "%s", sha256 ? sha256 : ""); /* a copy: fail_job frees the record */
 }
@@ -965,8 +988,79 @@ static void claim_planned(const batch *b, claims *c, size_t i)
 static int by_claim(const void *a, const void *b)
 {
     const claim *x = a, *y = b;
-    int d = strcmp(x->name, y->name);
+    int d = strcmp(x->file, y->file);
     return d ? d : x->job < y->job ? -1 : x->job > y->job;
+}
+
+/* Where OUT_DIR/name lands, as a string two names share when they are one
+ * file: the real path of its deepest folder that exists (a symlinked folder
+ * resolves), then the rest as written; in ASCII lower case when OUT_DIR's file
+ * system ignores case (a.glb and A.glb; other letters' cases are not folded).
+ * A folder made by the run (a symlink inside it, OUT_DIR/A when OUT_DIR/a is
+ * made) resolves only after the run; the check after the jobs sees it. NULL
+ * when memory ran out. */
+static char *place_of(const batch *b, const char *name)
+{
+    char *path = join_path(b->output_dir, name), *place = NULL;
+    if (!path) return NULL;
+    for (size_t end = strlen(path), start; end > 0; end = start - 1) {
+        for (start = end; start > 0 && path[start - 1] != '/';) --start;
+        if (start == 0) break;
+        path[start - 1] = 0;
+        char *real = realpath(start > 1 ? path : "/", NULL);
+        const int found = real != NULL, no_memory = !real && errno == ENOMEM;
+        path[start - 1] = '/';
+        if (found) place = join_path(real, path + start);
+        free(real);
+        if (found || no_memory) {
+            free(path);
+            path = NULL;
+            break;
+        }
+    }
+    if (path) { /* no folder of it resolves: as written */
+        place = path;
+        path = NULL;
+    }
+    if (place && b->case_blind)
+        for (char *c = place; *c; ++c)
+            if (*c >= 'A' && *c <= 'Z') *c = (char)(*c - 'A' + 'a');
+    return place;
+}
+
+typedef struct placed {
+    char *place;
+    const char *name;
+    size_t claim;
+} placed;
+
+static int by_place(const void *a, const void *b)
+{
+    const placed *x = a, *y = b;
+    int d = strcmp(x->place, y->place);
+    return d ? d : strcmp(x->name, y->name);
+}
+
+/* Sets every claim's file: the smallest of the names that reach the same
+ * place. -1 when memory ran out. */
+static int claim_files(const batch *b, claims *c)
+{
+    placed *p = c->count ? malloc(c->count * sizeof *p) : NULL;
+    if (c->count && !p) return -1;
+    size_t n = 0;
+    for (; n < c->count; ++n) {
+        p[n] = (placed){place_of(b, c->items[n].name), c->items[n].name, n};
+        if (!p[n].place) break;
+    }
+    const int rc = n < c->count ? -1 : 0;
+    if (!rc && n) qsort(p, n, sizeof *p, by_place);
+    for (size_t i = 0, first = 0; !rc && i < n; ++i) {
+        if (strcmp(p[i].place, p[first].place) != 0) first = i;
+        c->items[p[i].claim].file = p[first].name;
+    }
+    for (size_t i = 0; i < n; ++i) free(p[i].place);
+    free(p);
+    return rc;
 }
 
 /* Marks a job failed by the batch itself, with its one-line error. */
@@ -987,29 +1081,32 @@ static void fail_job(batch *b, job *j, int code, const char *message)
  * the later one's bytes replaced its file. Returns -1 when memory ran out. */
 static int fail_clashes(batch *b, claims *c, int after)
 {
-    if (c->failed) return -1;
+    if (c->failed || claim_files(b, c)) return -1;
     if (c->count) qsort(c->items, c->count, sizeof *c->items, by_claim);
     for (size_t k = 0; k < c->count; ++k) {
         const claim *q = &c->items[k];
-        for (size_t e = k; e-- > 0 && strcmp(c->items[e].name, q->name) == 0;) {
+        for (size_t e = k; e-- > 0 && strcmp(c->items[e].file, q->file) == 0;) {
             const claim *p = &c->items[e];
             if (p->job == q->job || (p->sha256[0] && strcmp(p->sha256, q->sha256) == 0)) continue;
             job *first = &b->jobs[p->job], *later = &b->jobs[q->job];
-            char message[700], *target = join_path(b->output_dir, q->name);
-            const char *t = target ? target : q->name;
+            char message[1400], same[700] = "", *target = join_path(b->output_dir, q->name),
+                                *other = join_path(b->output_dir, p->name);
+            const char *t = target ? target : q->name, *o = other ? other : p->name;
+            if (strcmp(p->name, q->name) != 0) lp_line(same, sizeof same, ", which is %s on this file system,", o);
             if (later->state != JOB_SKIPPED_SHARD && later->state != JOB_FAILED) {
-                lp_line(message, sizeof message, "lodpipe: %s: writes %s, as %s does; not %s (rename one of them)",
-                        later->source, t, first->source, after ? "recorded" : "built");
+                lp_line(message, sizeof message, "lodpipe: %s: writes %s%s as %s does; not %s (rename one of them)",
+                        later->source, t, same[0] ? same : ",", first->source, after ? "recorded" : "built");
                 fail_job(b, later, LP_USAGE, message);
             }
             char hex[SHA256_HEX];
             if (after && (first->state == JOB_BUILT || first->state == JOB_CACHED) &&
                 (!target || sha256_file_hex(target, hex) != 0 || strcmp(hex, p->sha256) != 0)) {
                 lp_line(message, sizeof message, "lodpipe: %s: its %s was replaced by the one %s writes; not recorded (rename one of them)",
-                        first->source, t, later->source);
+                        first->source, o, later->source);
                 fail_job(b, first, LP_USAGE, message);
             }
             free(target);
+            free(other);
             break;
         }
     }
@@ -1314,6 +1411,31 @@ static int folder_contains(const struct stat *folder, const char *path)
     return found;
 }
 
+/* 1 when the folder's file system ignores case: a file made there under a
+ * lower-case name is found under the upper-case one. Probed, not guessed from
+ * the system: a case-insensitive volume (exFAT, a Windows or macOS share) can
+ * be mounted anywhere. 0 when the probe cannot be made (then names are
+ * compared as written). */
+static int case_blind_folder(const char *folder)
+{
+    char lower[64], upper[64];
+    snprintf(lower, sizeof lower, ".lodpipe-case-probe-%ld", (long)getpid());
+    snprintf(upper, sizeof upper, ".LODPIPE-CASE-PROBE-%ld", (long)getpid());
+    char *made = join_path(folder, lower), *other = join_path(folder, upper);
+    int blind = 0;
+    if (made && other) {
+        const int fd = open(made, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+        if (fd >= 0) {
+            close(fd);
+            blind = access(other, F_OK) == 0;
+            unlink(made);
+        }
+    }
+    free(made);
+    free(other);
+    return blind;
+}
+
 static int prepare(batch *b, lp_error *err)
 {
     struct stat src;
@@ -1336,6 +1458,7 @@ static int prepare(batch *b, lp_error *err)
         rc = lp_fail(err, LP_IO, "%s: cannot write the cache manifest (%s)", manifest, strerror(errno));
     free(manifest);
     if (rc) return rc;
+    b->case_blind = case_blind_folder(b->output_dir);
     const int inside = folder_contains(&b->output_stat, b->source_dir);
     if (inside < 0) return lp_no_memory(err, "%s: out of memory", b->output_dir);
     if (inside)

@@ -11,9 +11,11 @@
  *   same effective configuration, so the bytes are those of a single-file run
  *   (external .bin and images land beside it as that run writes them).
  * - Two files that would write the same file in OUT_DIR (a.gltf and a.GLTF
- *   both write a.bin) are refused before the launch: the later one in file
- *   order fails, naming the earlier; a texture replaced by another file's
- *   output with other bytes, found after the jobs, fails both (batch.c).
+ *   both write a.bin; b/m.glb and a/m.glb when OUT_DIR/b links to a; Foo.glb
+ *   and foo.glb on a case-insensitive volume) are refused before the launch:
+ *   the later one in file order fails, naming the earlier; a texture replaced
+ *   by another file's output with other bytes, found after the jobs, fails
+ *   the later file, and the earlier one when its file was replaced (batch.c).
  * - A failing file is reported with the job's own one-line error; the other
  *   files complete. batch_run returns LP_OK when no file failed,
  *   LP_SOME_FAILED (5) when at least one did, and LP_USAGE / LP_IO when the
@@ -24,7 +26,8 @@
  *   canonical text, run.threads left out: the output does not depend on it),
  *   the --allow-external-uris switch, the file's relative path and the bytes
  *   of the file and of every file it referenced (buffers, images), plus the
- *   SHA-256 of every file the job wrote. A file is skipped ("cached") when its
+ *   SHA-256 of every file the job wrote (of the bytes it wrote, as its --json
+ *   report gives them). A file is skipped ("cached") when its
  *   key is unchanged AND every output it wrote is still there with the
  *   recorded bytes; `force` rebuilds everything. A file whose inputs changed
  *   while its job ran (hash before the launch vs after, or a change time not

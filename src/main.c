@@ -23,6 +23,7 @@
 #include "measure.h"
 #include "output.h"
 #include "scene.h"
+#include "sha256.h"
 #include "simplify.h"
 #include "status.h"
 #include "threads.h"
@@ -256,8 +257,9 @@ static int depfile_usable(const cli *c, const gltf_doc *doc)
     return LP_OK;
 }
 
-/* Appends `,"outputs":[paths]`: the files output_write_all writes for `out`
- * (the main file first, the others in its folder). */
+/* Appends `,"outputs":[paths],"output_sha256":[hex]`: the files
+ * output_write_all writes for `out` (the main file first, the others in its
+ * folder) and the SHA-256 of each one's bytes. */
 static void json_written_files(jsonw *j, const char *out, const gltf_out_file *files, size_t count)
 {
     const char *slash = strrchr(out, '/');
@@ -271,6 +273,18 @@ static void json_written_files(jsonw *j, const char *out, const gltf_out_file *f
         if (path.failed) j->failed = 1; /* a name left out would be a wrong report */
         else jsonw_string(j, path.text);
         jsonw_free(&path);
+    }
+    /* the hashes of the bytes this run writes, so a batch records what each
+     * job wrote, not what it finds on disk later, when another job may have
+     * replaced a shared file name (a.png and A.png on a case-insensitive
+     * volume) */
+    jsonw_raw(j, "],\"output_sha256\":[");
+    for (size_t i = 0; i < count; ++i) {
+        uint8_t digest[SHA256_BYTES];
+        char hex[SHA256_HEX];
+        sha256_bytes(files[i].bytes, files[i].size, digest);
+        sha256_hex(digest, hex);
+        jsonw_printf(j, "%s\"%s\"", i ? "," : "", hex);
     }
     jsonw_raw(j, "]");
 }

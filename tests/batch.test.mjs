@@ -11,6 +11,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
+import os from 'node:os';
 import path from 'node:path';
 import { spawn, spawnSync } from 'node:child_process';
 import {
@@ -549,6 +550,12 @@ function convertTo(dir, name, asset) {
   assert.equal(r.status, 0, describeRun(r));
 }
 
+/** Waits 30 ms: a referenced file whose change time is not before its job's launch (the kernel's coarse clock,
+ * a few ms a tick) counts as changed while the job ran, and its file is built but not cached. */
+function waitPastCoarseClock() {
+  Atomics.wait(new Int32Array(new SharedArrayBuffer(4)), 0, 0, 30);
+}
+
 /** A temp folder with src/ (empty), out/ (not made) and mk/ holding s.gltf + s.bin (suzanne). */
 function collisionFolders(t) {
   const dir = tempDir(t);
@@ -568,6 +575,7 @@ test('batch: files whose outputs would collide: the later one fails, naming both
   for (const f of ['s.bin', 'c.bin']) fs.copyFileSync(path.join(mk, f), path.join(src, f));
   fs.copyFileSync(path.join(mk, 's.gltf'), path.join(src, 'a.gltf'));
   fs.copyFileSync(path.join(mk, 'c.gltf'), path.join(src, 'a.GLTF')); // 'a.GLTF' < 'a.gltf' in byte order
+  waitPastCoarseClock(); // else a fast build can launch in the tick c.bin was copied in: built again, not cached
   for (let run = 0; run < 2; ++run) {
     const r = batch(src, out, ['-j', '2']);
     assert.equal(r.run.status, EXIT_SOME_FAILED, describeRun(r.run));
@@ -620,4 +628,111 @@ test('batch: a texture that another file\'s output replaces fails both files', {
     assert.equal(b, `lodpipe: ${path.join(src, 'b.gltf')}: writes ${path.join(out, 'b.bin')}, as ${path.join(src, 'a.gltf')} ` +
       'does; not recorded (rename one of them)');
   }
+});
+
+// Two names, one file (QA): with a folder of OUT_DIR that is a symlink to another (out/b -> a), src/a/m.glb and
+// src/b/m.glb wrote the same file; both were recorded as built, exit 0, and each run rebuilt one of them. Claims
+// are compared by the file a name reaches (its folder's real path): the later file fails before it runs, naming
+// both paths, and the earlier one is built, then cached.
+test('batch: two outputs that are one file through a symlinked output folder: the later fails; exit 5', { skip }, (t) => {
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(dir, 'out');
+  for (const d of ['src/a', 'src/b', 'out/a', 'single']) fs.mkdirSync(path.join(dir, d), { recursive: true });
+  fs.symlinkSync('a', path.join(out, 'b'));
+  fs.copyFileSync(corpusPath('scans/cow.glb'), path.join(src, 'a', 'm.glb'));
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'b', 'm.glb'));
+  const line = `lodpipe: ${path.join(src, 'b/m.glb')}: writes ${path.join(out, 'b/m.glb')}, which is ` +
+    `${path.join(out, 'a/m.glb')} on this file system, as ${path.join(src, 'a/m.glb')} does; not built (rename one of them)`;
+  for (let run = 0; run < 2; ++run) {
+    const r = batch(src, out, ['-j', '2']);
+    assert.equal(r.run.status, EXIT_SOME_FAILED, describeRun(r.run));
+    assert.deepEqual(r.byStatus[run ? 'cached' : 'built'], ['a/m.glb'], `run ${run}`);
+    assert.deepEqual(r.byStatus.failed, ['b/m.glb'], `run ${run}`);
+    assert.equal(r.summary.results.find((x) => x.file === 'b/m.glb').error, line);
+    assert.ok(r.run.stderr.split('\n').includes(line), r.run.stderr);
+  }
+  const single = path.join(dir, 'single', 'm.glb');
+  assert.equal(runLodpipe([path.join(src, 'a', 'm.glb'), '-o', single]).status, 0);
+  assert.ok(fs.readFileSync(path.join(out, 'a', 'm.glb')).equals(fs.readFileSync(single)), 'out/a/m.glb is src/a/m.glb\'s');
+});
+
+/** An empty exFAT volume (it ignores case, as a Windows or macOS share does) mounted through a loop device and
+ * FUSE (exfatprogs, exfat-fuse); { mount } or { skip: why } when this machine cannot (not root, no loop device
+ * or /dev/fuse). Unmounted and removed after the test. */
+function caseBlindVolume(t) {
+  if (process.getuid() !== 0) return { skip: 'mounting a volume needs root' };
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'lodpipe-exfat-'));
+  const image = path.join(dir, 'volume.img'), mount = path.join(dir, 'mnt');
+  const sh = (cmd, ...args) => spawnSync(cmd, args, { encoding: 'utf8', timeout: 30000 });
+  let device = null, mounted = false;
+  t.after(() => {
+    if (mounted) sh('umount', mount);
+    if (device) sh('losetup', '-d', device);
+    fs.rmSync(dir, { recursive: true, force: true });
+  });
+  fs.mkdirSync(mount);
+  fs.writeFileSync(image, '');
+  fs.truncateSync(image, 64 << 20);
+  const made = sh('mkfs.exfat', image);
+  if (made.status !== 0) return { skip: `mkfs.exfat: ${made.error?.message ?? made.stderr.trim()}` };
+  const loop = sh('losetup', '-f', '--show', image);
+  if (loop.status !== 0) return { skip: `losetup: ${loop.error?.message ?? loop.stderr.trim()}` };
+  device = loop.stdout.trim();
+  const m = sh('mount.exfat-fuse', device, mount);
+  if (m.status !== 0) return { skip: `mount.exfat-fuse: ${m.error?.message ?? m.stderr.trim()}` };
+  mounted = true;
+  fs.writeFileSync(path.join(mount, 'probe'), '');
+  assert.ok(fs.existsSync(path.join(mount, 'PROBE')), 'the exFAT volume ignores case');
+  fs.rmSync(path.join(mount, 'probe'));
+  return { mount };
+}
+
+// The same on a case-insensitive file system (QA): Foo.glb and foo.glb, and A/m.glb and a/m.glb, were one file
+// each, silently, as above. batch probes OUT_DIR's file system and compares names in ASCII lower case on one that
+// ignores case: the later file fails before it runs. Textures, which a first run cannot claim before its jobs
+// run, are caught after them (T.png and t.png with other bytes): both files fail, neither is cached.
+test('batch: on a case-insensitive volume, names that differ only in case are one file', { skip }, (t) => {
+  const vol = caseBlindVolume(t);
+  if (vol.skip) return t.skip(vol.skip);
+  const dir = tempDir(t);
+  const src = path.join(dir, 'src'), out = path.join(vol.mount, 'out');
+  for (const d of ['src/A', 'src/a', 'src/tex']) fs.mkdirSync(path.join(dir, d), { recursive: true });
+  fs.copyFileSync(corpusPath('scans/cow.glb'), path.join(src, 'Foo.glb'));
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'foo.glb'));
+  fs.copyFileSync(corpusPath('scans/cow.glb'), path.join(src, 'A', 'm.glb'));
+  fs.copyFileSync(corpusPath('scans/suzanne.glb'), path.join(src, 'a', 'm.glb'));
+  const truck = JSON.parse(fs.readFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck.gltf'), 'utf8'));
+  fs.copyFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck0.bin'), path.join(src, 'tex', 'CesiumMilkTruck0.bin'));
+  fs.copyFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck.png'), path.join(src, 'tex', 'T.png'));
+  fs.copyFileSync(corpusPath('scenes/kenney/Textures/colormap.png'), path.join(src, 'tex', 't.png'));
+  for (const [name, uri] of [['x.gltf', 'T.png'], ['y.gltf', 't.png']]) {
+    truck.images[0].uri = uri;
+    fs.writeFileSync(path.join(src, 'tex', name), JSON.stringify(truck));
+  }
+  const p = (root, rel) => path.join(root, rel);
+  const planned = (later, earlier) => `lodpipe: ${p(src, later)}: writes ${p(out, later)}, which is ` +
+    `${p(out, earlier)} on this file system, as ${p(src, earlier)} does; not built (rename one of them)`;
+  const r = batch(src, out, ['-j', '2']);
+  assert.equal(r.run.status, EXIT_SOME_FAILED, describeRun(r.run));
+  const result = (file) => r.summary.results.find((x) => x.file === file);
+  assert.deepEqual(r.byStatus.built.filter((f) => f !== 'tex/x.gltf'), ['A/m.glb', 'Foo.glb']);
+  assert.deepEqual(r.byStatus.failed.filter((f) => f !== 'tex/x.gltf'), ['a/m.glb', 'foo.glb', 'tex/y.gltf']);
+  assert.equal(result('foo.glb').error, planned('foo.glb', 'Foo.glb'));
+  assert.equal(result('a/m.glb').error, planned('a/m.glb', 'A/m.glb'));
+  assert.equal(result('tex/y.gltf').error, `lodpipe: ${p(src, 'tex/y.gltf')}: writes ${p(out, 'tex/t.png')}, which is ` +
+    `${p(out, 'tex/T.png')} on this file system, as ${p(src, 'tex/x.gltf')} does; not recorded (rename one of them)`);
+  // the two jobs run at once: x.gltf stays built when its T.png was written last, else it fails too; either way
+  // nothing recorded is wrong (each job's record holds the bytes it wrote, not what it finds on disk later)
+  if (result('tex/x.gltf').status === 'built') {
+    assert.ok(fs.readFileSync(p(out, 'tex/T.png')).equals(fs.readFileSync(p(src, 'tex/T.png'))), 'T.png is x.gltf\'s');
+  } else {
+    assert.equal(result('tex/x.gltf').error, `lodpipe: ${p(src, 'tex/x.gltf')}: its ${p(out, 'tex/T.png')} was ` +
+      `replaced by the one ${p(src, 'tex/y.gltf')} writes; not recorded (rename one of them)`);
+  }
+  const again = batch(src, out, ['-j', '2']);
+  assert.equal(again.run.status, EXIT_SOME_FAILED, describeRun(again.run));
+  assert.deepEqual(again.byStatus.cached, ['A/m.glb', 'Foo.glb'], 'the earlier files stay cached');
+  const single = path.join(dir, 'Foo.glb');
+  assert.equal(runLodpipe([path.join(src, 'Foo.glb'), '-o', single]).status, 0);
+  assert.ok(fs.readFileSync(path.join(out, 'foo.glb')).equals(fs.readFileSync(single)), 'the one file is Foo.glb\'s');
 });
