@@ -121,7 +121,7 @@ typedef struct batch {
     int progress_shown;
     double start;
     struct stat output_stat;
-    int case_blind; /* OUT_DIR's file system takes a.glb and A.glb for one name (case_blind_folder) */
+    int case_blind; /* OUT_DIR's file system takes a.glb and A.glb for one name (output.h) */
 } batch;
 
 static char *join_path(const char *dir, const char *name)
@@ -1411,31 +1411,6 @@ static int folder_contains(const struct stat *folder, const char *path)
     return found;
 }
 
-/* 1 when the folder's file system ignores case: a file made there under a
- * lower-case name is found under the upper-case one. Probed, not guessed from
- * the system: a case-insensitive volume (exFAT, a Windows or macOS share) can
- * be mounted anywhere. 0 when the probe cannot be made (then names are
- * compared as written). */
-static int case_blind_folder(const char *folder)
-{
-    char lower[64], upper[64];
-    snprintf(lower, sizeof lower, ".lodpipe-case-probe-%ld", (long)getpid());
-    snprintf(upper, sizeof upper, ".LODPIPE-CASE-PROBE-%ld", (long)getpid());
-    char *made = join_path(folder, lower), *other = join_path(folder, upper);
-    int blind = 0;
-    if (made && other) {
-        const int fd = open(made, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-        if (fd >= 0) {
-            close(fd);
-            blind = access(other, F_OK) == 0;
-            unlink(made);
-        }
-    }
-    free(made);
-    free(other);
-    return blind;
-}
-
 static int prepare(batch *b, lp_error *err)
 {
     struct stat src;
@@ -1458,7 +1433,7 @@ static int prepare(batch *b, lp_error *err)
         rc = lp_fail(err, LP_IO, "%s: cannot write the cache manifest (%s)", manifest, strerror(errno));
     free(manifest);
     if (rc) return rc;
-    b->case_blind = case_blind_folder(b->output_dir);
+    b->case_blind = output_folder_ignores_case(b->output_dir);
     const int inside = folder_contains(&b->output_stat, b->source_dir);
     if (inside < 0) return lp_no_memory(err, "%s: out of memory", b->output_dir);
     if (inside)

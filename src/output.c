@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -237,11 +238,19 @@ int output_write_all(const char *main_path, const gltf_out_file *files, size_t c
     return rc;
 }
 
-int output_same_file(const char *a, const char *b)
+int output_folder_ignores_case(const char *folder)
 {
-    struct stat sa, sb;
-    if (stat(a, &sa) != 0 || stat(b, &sb) != 0) return 0;
-    return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    char lower[4200], upper[4200];
+    const long pid = (long)getpid();
+    const int nl = snprintf(lower, sizeof lower, "%s/.lodpipe-case-probe-%ld", folder, pid);
+    const int nu = snprintf(upper, sizeof upper, "%s/.LODPIPE-CASE-PROBE-%ld", folder, pid);
+    if (nl < 0 || nu < 0 || (size_t)nl >= sizeof lower || (size_t)nu >= sizeof upper) return 0;
+    const int fd = open(lower, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd < 0) return 0;
+    close(fd);
+    const int blind = access(upper, F_OK) == 0;
+    unlink(lower);
+    return blind;
 }
 
 /* The real path of path's folder joined with its last name, in out; 0 when
@@ -258,12 +267,33 @@ static int canonical_entry(const char *path, char *out, size_t size)
     return n >= 0 && (size_t)n < size;
 }
 
+/* 1 when a and b are one entry of one folder but for ASCII case, on a file
+ * system that ignores case: one file, which an identity check misses when
+ * neither exists yet, or when the file system gives each name its own inode
+ * number (a FUSE exFAT volume does). */
+static int case_variants(const char *a, const char *b)
+{
+    char ca[8192], cb[8192], folder[8192];
+    if (!canonical_entry(a, ca, sizeof ca) || !canonical_entry(b, cb, sizeof cb)) return 0;
+    if (strcmp(ca, cb) == 0 || strcasecmp(ca, cb) != 0) return 0;
+    folder_of(ca, folder, sizeof folder);
+    return output_folder_ignores_case(folder);
+}
+
+int output_same_file(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    if (stat(a, &sa) != 0 || stat(b, &sb) != 0) return 0;
+    return (sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino) || case_variants(a, b);
+}
+
 int output_same_path(const char *a, const char *b)
 {
     struct stat sa, sb;
     const int ea = stat(a, &sa) == 0, eb = stat(b, &sb) == 0;
-    if (ea && eb) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    if (ea && eb) return (sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino) || case_variants(a, b);
     if (ea || eb) return 0;
     char ca[8192], cb[8192];
-    return canonical_entry(a, ca, sizeof ca) && canonical_entry(b, cb, sizeof cb) && strcmp(ca, cb) == 0;
+    if (canonical_entry(a, ca, sizeof ca) && canonical_entry(b, cb, sizeof cb) && strcmp(ca, cb) == 0) return 1;
+    return case_variants(a, b);
 }

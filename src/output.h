@@ -65,12 +65,22 @@ void output_set_end(output_set *set);
  * fails at once rather than at the end; output_write_all checks again. */
 int output_check_folder(const char *main_path, lp_error *err);
 
-/* 1 when a and b name the same existing file. */
+/* 1 when a and b name the same existing file: the same identity (device,
+ * inode), or names that differ only in ASCII case in a folder whose file
+ * system ignores case (output_folder_ignores_case). */
 int output_same_file(const char *a, const char *b);
 
 /* 1 when a and b name the same file, existing or not: the same existing
- * file, or neither exists and both name the same entry of the same folder
- * (for a file about to be written). */
+ * file (as output_same_file), or neither exists and both name the same entry
+ * of the same folder, case aside where the folder ignores case (for a file
+ * about to be written). */
 int output_same_path(const char *a, const char *b);
+
+/* 1 when the folder's file system ignores case (exFAT, a Windows or macOS
+ * share): a hidden file made there under a lower-case name
+ * (.lodpipe-case-probe-PID, removed at once) is found under the upper-case
+ * one. Probed, not guessed: such a volume can be mounted anywhere. 0 when
+ * the probe cannot be made (a read-only folder). */
+int output_folder_ignores_case(const char *folder);
 
 #endif

@@ -11,12 +11,11 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
-import os from 'node:os';
 import path from 'node:path';
 import { spawn, spawnSync } from 'node:child_process';
 import {
-  corpusPath, describeRun, lodpipeBin, oneLineErrorProblems, skipWithoutBinary, repoRoot, runHealthProblems, runLodpipe,
-  sharedRoot, tempDir,
+  caseBlindVolume, corpusPath, describeRun, lodpipeBin, oneLineErrorProblems, skipWithoutBinary, repoRoot,
+  runHealthProblems, runLodpipe, sharedRoot, tempDir,
 } from './lib/gltf.mjs';
 
 const skip = skipWithoutBinary();
@@ -655,37 +654,6 @@ test('batch: two outputs that are one file through a symlinked output folder: th
   assert.equal(runLodpipe([path.join(src, 'a', 'm.glb'), '-o', single]).status, 0);
   assert.ok(fs.readFileSync(path.join(out, 'a', 'm.glb')).equals(fs.readFileSync(single)), 'out/a/m.glb is src/a/m.glb\'s');
 });
-
-/** An empty exFAT volume (it ignores case, as a Windows or macOS share does) mounted through a loop device and
- * FUSE (exfatprogs, exfat-fuse); { mount } or { skip: why } when this machine cannot (not root, no loop device
- * or /dev/fuse). Unmounted and removed after the test. */
-function caseBlindVolume(t) {
-  if (process.getuid() !== 0) return { skip: 'mounting a volume needs root' };
-  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'lodpipe-exfat-'));
-  const image = path.join(dir, 'volume.img'), mount = path.join(dir, 'mnt');
-  const sh = (cmd, ...args) => spawnSync(cmd, args, { encoding: 'utf8', timeout: 30000 });
-  let device = null, mounted = false;
-  t.after(() => {
-    if (mounted) sh('umount', mount);
-    if (device) sh('losetup', '-d', device);
-    fs.rmSync(dir, { recursive: true, force: true });
-  });
-  fs.mkdirSync(mount);
-  fs.writeFileSync(image, '');
-  fs.truncateSync(image, 64 << 20);
-  const made = sh('mkfs.exfat', image);
-  if (made.status !== 0) return { skip: `mkfs.exfat: ${made.error?.message ?? made.stderr.trim()}` };
-  const loop = sh('losetup', '-f', '--show', image);
-  if (loop.status !== 0) return { skip: `losetup: ${loop.error?.message ?? loop.stderr.trim()}` };
-  device = loop.stdout.trim();
-  const m = sh('mount.exfat-fuse', device, mount);
-  if (m.status !== 0) return { skip: `mount.exfat-fuse: ${m.error?.message ?? m.stderr.trim()}` };
-  mounted = true;
-  fs.writeFileSync(path.join(mount, 'probe'), '');
-  assert.ok(fs.existsSync(path.join(mount, 'PROBE')), 'the exFAT volume ignores case');
-  fs.rmSync(path.join(mount, 'probe'));
-  return { mount };
-}
 
 // The same on a case-insensitive file system (QA): Foo.glb and foo.glb, and A/m.glb and a/m.glb, were one file
 // each, silently, as above. batch probes OUT_DIR's file system and compares names in ASCII lower case on one that

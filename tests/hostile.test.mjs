@@ -24,7 +24,7 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { spawnSync } from 'node:child_process';
 import {
-  corpusPath, describeRun, listFilesRecursive, newValidatorErrors, oneLineErrorProblems, parseGlb, repoRoot,
+  caseBlindVolume, corpusPath, describeRun, listFilesRecursive, newValidatorErrors, oneLineErrorProblems, parseGlb, repoRoot,
   runHealthProblems, runLodpipe, skipWithoutBinary, successStderrProblems, tempDir, validateFileCached,
 } from './lib/gltf.mjs';
 import { BUILD, CHAIN_ASPECTS, analyzeChain, formatProblems, hausdorffAvailable } from './lib/lodcheck.mjs';
@@ -632,6 +632,32 @@ test('safe writes: refusal, missing and read-only folders, full disk', { skip },
     const r = runLodpipe([glbAsBin, '-o', path.join(dir, 'duck.gltf')]);
     assert.deepEqual(refusalProblems(r, 1, 'duck.bin', dir, [...names, 'lod.bin', 'lod.gltf', 'duck.bin']), [], describeRun(r));
     assert.ok(fs.readFileSync(glbAsBin).equals(fs.readFileSync(DUCK)), 'the input is unchanged');
+  });
+
+  // On a case-insensitive volume (exFAT, as a Windows or macOS share) scene.gltf IS Scene.gltf, and data.bin IS
+  // Data.bin; FUSE's exFAT gives each name its own inode number, so the identity check alone missed both (QA:
+  // the input was replaced, exit 0). Names that differ only in case are one file where the folder ignores case.
+  await t.test('on a case-insensitive volume, an output named like the input or its .bin but for case -> exit 1', (st) => {
+    const vol = caseBlindVolume(st);
+    if (vol.skip) return st.skip(vol.skip);
+    const dir = path.join(vol.mount, 'in');
+    fs.mkdirSync(dir);
+    const names = ['CesiumMilkTruck.gltf', 'Data.bin', 'CesiumMilkTruck.png'];
+    const truck = JSON.parse(fs.readFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck.gltf'), 'utf8'));
+    truck.buffers[0].uri = 'Data.bin';
+    fs.writeFileSync(path.join(dir, names[0]), JSON.stringify(truck));
+    fs.copyFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck0.bin'), path.join(dir, 'Data.bin'));
+    fs.copyFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck.png'), path.join(dir, names[2]));
+    const before = names.map((f) => fs.readFileSync(path.join(dir, f)));
+    const input = path.join(dir, names[0]);
+    for (const [out, name] of [['cesiummilktruck.gltf', 'refusing to overwrite the input'], ['CESIUMMILKTRUCK.GLTF',
+      'refusing to overwrite the input'], ['data.gltf', 'data.bin (written with the output) is a file the input reads']]) {
+      const r = runLodpipe([input, '-o', path.join(dir, out)]);
+      assert.deepEqual(refusalProblems(r, 1, name, dir, names), [], `-o ${out}: ${describeRun(r)}`);
+    }
+    names.forEach((f, i) => assert.ok(fs.readFileSync(path.join(dir, f)).equals(before[i]), `${f} is unchanged`));
+    const forced = runLodpipe([input, '-o', path.join(dir, 'cesiummilktruck.gltf'), '--force']);
+    assert.equal(forced.status, 0, `--force writes over the input: ${describeRun(forced)}`);
   });
 
   await t.test('--depfile naming OUT, IN, the config or a file IN reads, or in a missing folder -> refused before the work', (st) => {

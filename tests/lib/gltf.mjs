@@ -137,6 +137,37 @@ export function tempDir(t, prefix = 'lodpipe-test-') {
   return dir;
 }
 
+/** An empty exFAT volume (it ignores case, as a Windows or macOS share does) mounted through a loop device and
+ * FUSE (exfatprogs, exfat-fuse); { mount } or { skip: why } when this machine cannot (not root, no loop device
+ * or /dev/fuse). Unmounted and removed after the test. */
+export function caseBlindVolume(t) {
+  if (process.getuid() !== 0) return { skip: 'mounting a volume needs root' };
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'lodpipe-exfat-'));
+  const image = path.join(dir, 'volume.img'), mount = path.join(dir, 'mnt');
+  const sh = (cmd, ...args) => spawnSync(cmd, args, { encoding: 'utf8', timeout: 30000 });
+  let device = null, mounted = false;
+  t.after(() => {
+    if (mounted) sh('umount', mount);
+    if (device) sh('losetup', '-d', device);
+    fs.rmSync(dir, { recursive: true, force: true });
+  });
+  fs.mkdirSync(mount);
+  fs.writeFileSync(image, '');
+  fs.truncateSync(image, 64 << 20);
+  const made = sh('mkfs.exfat', image);
+  if (made.status !== 0) return { skip: `mkfs.exfat: ${made.error?.message ?? made.stderr.trim()}` };
+  const loop = sh('losetup', '-f', '--show', image);
+  if (loop.status !== 0) return { skip: `losetup: ${loop.error?.message ?? loop.stderr.trim()}` };
+  device = loop.stdout.trim();
+  const m = sh('mount.exfat-fuse', device, mount);
+  if (m.status !== 0) return { skip: `mount.exfat-fuse: ${m.error?.message ?? m.stderr.trim()}` };
+  mounted = true;
+  fs.writeFileSync(path.join(mount, 'probe'), '');
+  if (!fs.existsSync(path.join(mount, 'PROBE'))) throw new Error('the exFAT volume does not ignore case');
+  fs.rmSync(path.join(mount, 'probe'));
+  return { mount };
+}
+
 /** All files below dir, relative paths with '/' separators, sorted. */
 export function listFilesRecursive(dir) {
   const out = [];
