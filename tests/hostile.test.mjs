@@ -658,6 +658,21 @@ test('safe writes: refusal, missing and read-only folders, full disk', { skip },
     names.forEach((f, i) => assert.ok(fs.readFileSync(path.join(dir, f)).equals(before[i]), `${f} is unchanged`));
     const forced = runLodpipe([input, '-o', path.join(dir, 'cesiummilktruck.gltf'), '--force']);
     assert.equal(forced.status, 0, `--force writes over the input: ${describeRun(forced)}`);
+    // an input (on a case-sensitive disk) whose images T.png and t.png would be one file in the output's folder
+    const src = tempDir(st), out = path.join(vol.mount, 'out');
+    fs.mkdirSync(out);
+    truck.buffers[0].uri = 'CesiumMilkTruck0.bin';
+    truck.images = [{ uri: 'T.png' }, { uri: 't.png' }];
+    truck.textures.push({ source: 1 });
+    fs.writeFileSync(path.join(src, 'two.gltf'), JSON.stringify(truck));
+    fs.copyFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck0.bin'), path.join(src, 'CesiumMilkTruck0.bin'));
+    fs.copyFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck.png'), path.join(src, 'T.png'));
+    fs.copyFileSync(corpusPath('scenes/kenney/Textures/colormap.png'), path.join(src, 't.png'));
+    const two = runLodpipe([path.join(src, 'two.gltf'), '-o', path.join(out, 'two.gltf')]);
+    assert.deepEqual(refusalProblems(two, 1, `${path.join(out, 'T.png')} and ${path.join(out, 't.png')} (written with ` +
+      'the output) are one file on this file system', out, []), [], describeRun(two));
+    const elsewhere = path.join(tempDir(st), 'two.gltf');
+    assert.equal(runLodpipe([path.join(src, 'two.gltf'), '-o', elsewhere]).status, 0, 'on a case-sensitive disk it is fine');
   });
 
   await t.test('--depfile naming OUT, IN, the config or a file IN reads, or in a missing folder -> refused before the work', (st) => {
