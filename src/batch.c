@@ -122,6 +122,7 @@ typedef struct batch {
     double start;
     struct stat output_stat;
     int case_blind; /* OUT_DIR's file system takes a.glb and A.glb for one name (output.h) */
+    char *source_real, *output_real; /* real paths of SRC_DIR and OUT_DIR, as place_of gives paths */
 } batch;
 
 static char *join_path(const char *dir, const char *name)
@@ -918,6 +919,7 @@ static void finish_job(batch *b, job *j, int status)
 typedef struct claim {
     char *name;              /* relative to OUT_DIR */
     const char *file;        /* the smallest name that reaches the same file (claim_files) */
+    int in_source;           /* it reaches a file inside SRC_DIR, outside OUT_DIR (claim_files) */
     char sha256[SHA256_HEX]; /* "" when the bytes are not known before the job */
     size_t job;
 } claim;
@@ -949,6 +951,7 @@ static void claim_add(claims *c, size_t job, char *name, const char *sha256)
     claim *k = &c->items[c->count++];
     k->name = name;
     k->file = name;
+    k->in_source = 0;
     k->job = job;
     snprintf(k->sha256, sizeof k->sha256, "%s", sha256 ? sha256 : ""); /* a copy: fail_job frees the record */
 }
@@ -992,6 +995,12 @@ static int by_claim(const void *a, const void *b)
     return d ? d : x->job < y->job ? -1 : x->job > y->job;
 }
 
+static void fold_case(char *s)
+{
+    for (; *s; ++s)
+        if (*s >= 'A' && *s <= 'Z') *s = (char)(*s - 'A' + 'a');
+}
+
 /* Where OUT_DIR/name lands, as a string two names share when they are one
  * file: the real path of its deepest folder that exists (a symlinked folder
  * resolves), then the rest as written; in ASCII lower case when OUT_DIR's file
@@ -999,7 +1008,7 @@ static int by_claim(const void *a, const void *b)
  * A folder made by the run (a symlink inside it, OUT_DIR/A when OUT_DIR/a is
  * made) resolves only after the run; the check after the jobs sees it. NULL
  * when memory ran out. */
-static char *place_of(const batch *b, const char *name)
+static char *place_of(const batch *b, const char *name, int fold)
 {
     char *path = join_path(b->output_dir, name), *place = NULL;
     if (!path) return NULL;
@@ -1022,10 +1031,17 @@ static char *place_of(const batch *b, const char *name)
         place = path;
         path = NULL;
     }
-    if (place && b->case_blind)
-        for (char *c = place; *c; ++c)
-            if (*c >= 'A' && *c <= 'Z') *c = (char)(*c - 'A' + 'a');
+    if (place && fold && b->case_blind) fold_case(place);
     return place;
+}
+
+/* A folder's real path as place_of gives paths; NULL when it does not
+ * resolve (errno says why). */
+static char *real_folder(const batch *b, const char *dir)
+{
+    char *real = realpath(dir, NULL);
+    if (real && b->case_blind) fold_case(real);
+    return real;
 }
 
 typedef struct placed {
@@ -1034,6 +1050,13 @@ typedef struct placed {
     size_t claim;
 } placed;
 
+/* 1 when path is inside folder (both as place_of gives them). */
+static int path_inside(const char *path, const char *folder)
+{
+    const size_t n = strlen(folder);
+    return strncmp(path, folder, n) == 0 && (path[n] == '/' || (n && folder[n - 1] == '/'));
+}
+
 static int by_place(const void *a, const void *b)
 {
     const placed *x = a, *y = b;
@@ -1041,16 +1064,19 @@ static int by_place(const void *a, const void *b)
     return d ? d : strcmp(x->name, y->name);
 }
 
-/* Sets every claim's file: the smallest of the names that reach the same
- * place. -1 when memory ran out. */
+/* Sets every claim's file, the smallest of the names that reach the same
+ * place, and whether that place is a source's (a folder of OUT_DIR that links
+ * into SRC_DIR: the output would replace a source file). -1 when memory ran
+ * out. */
 static int claim_files(const batch *b, claims *c)
 {
     placed *p = c->count ? malloc(c->count * sizeof *p) : NULL;
     if (c->count && !p) return -1;
     size_t n = 0;
     for (; n < c->count; ++n) {
-        p[n] = (placed){place_of(b, c->items[n].name), c->items[n].name, n};
+        p[n] = (placed){place_of(b, c->items[n].name, 1), c->items[n].name, n};
         if (!p[n].place) break;
+        c->items[n].in_source = path_inside(p[n].place, b->source_real) && !path_inside(p[n].place, b->output_real);
     }
     const int rc = n < c->count ? -1 : 0;
     if (!rc && n) qsort(p, n, sizeof *p, by_place);
@@ -1083,6 +1109,17 @@ static int fail_clashes(batch *b, claims *c, int after)
 {
     if (c->failed || claim_files(b, c)) return -1;
     if (c->count) qsort(c->items, c->count, sizeof *c->items, by_claim);
+    for (size_t k = 0; k < c->count; ++k) {
+        const claim *q = &c->items[k];
+        job *j = &b->jobs[q->job];
+        if (!q->in_source || j->state == JOB_SKIPPED_SHARD || j->state == JOB_FAILED) continue;
+        char message[1400], *target = join_path(b->output_dir, q->name), *place = place_of(b, q->name, 0);
+        lp_line(message, sizeof message, "lodpipe: %s: writes %s, which is %s in the source folder; not %s (a folder of OUT_DIR links into SRC_DIR)",
+                j->source, target ? target : q->name, place ? place : "a file", after ? "recorded" : "built");
+        fail_job(b, j, LP_USAGE, message);
+        free(target);
+        free(place);
+    }
     for (size_t k = 0; k < c->count; ++k) {
         const claim *q = &c->items[k];
         for (size_t e = k; e-- > 0 && strcmp(c->items[e].file, q->file) == 0;) {
@@ -1434,6 +1471,12 @@ static int prepare(batch *b, lp_error *err)
     free(manifest);
     if (rc) return rc;
     b->case_blind = output_folder_ignores_case(b->output_dir);
+    const char *unresolved = !(b->source_real = real_folder(b, b->source_dir)) ? b->source_dir
+                             : !(b->output_real = real_folder(b, b->output_dir)) ? b->output_dir
+                                                                                 : NULL;
+    if (unresolved)
+        return errno == ENOMEM ? lp_no_memory(err, "%s: out of memory", unresolved)
+                               : lp_fail(err, LP_IO, "%s: cannot resolve the folder (%s)", unresolved, strerror(errno));
     const int inside = folder_contains(&b->output_stat, b->source_dir);
     if (inside < 0) return lp_no_memory(err, "%s: out of memory", b->output_dir);
     if (inside)
@@ -1486,6 +1529,8 @@ static void free_batch(batch *b)
     free(b->jobs);
     free(b->source_dir);
     free(b->output_dir);
+    free(b->source_real);
+    free(b->output_real);
 }
 
 int batch_run(const batch_options *options)

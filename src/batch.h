@@ -16,6 +16,8 @@
  *   the later one in file order fails, naming the earlier; a texture replaced
  *   by another file's output with other bytes, found after the jobs, fails
  *   the later file, and the earlier one when its file was replaced (batch.c).
+ *   An output that reaches a file inside SRC_DIR through a link in OUT_DIR
+ *   fails its file before the launch: no source is replaced.
  * - A failing file is reported with the job's own one-line error; the other
  *   files complete. batch_run returns LP_OK when no file failed,
  *   LP_SOME_FAILED (5) when at least one did, and LP_USAGE / LP_IO when the
