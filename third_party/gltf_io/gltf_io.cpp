@@ -967,7 +967,9 @@ void check_buffer_source(const ojson &buffer, size_t b, bool glb, const uint8_t 
         const std::string full = external_file_of(where, uri, opt, dir);
         const uint64_t size = require_regular_file(full, where, uri);
         uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
-        if (size > cap) fail(GLTF_INVALID, where + ": " + quoted(uri) + " is too large");
+        if (size > cap)
+            fail(GLTF_INVALID, where + ": " + quoted(uri) + " is too large (" + std::to_string(size) + " bytes; at most " +
+                                   std::to_string(cap) + ")");
         if (size != declared) fail_byte_length(where + ": " + quoted(uri), size, declared);
     }
 }
