@@ -344,6 +344,31 @@ test('limits: refused before allocation, with a one-line error', { skip }, async
     assertRefused(st, f, 2, null);
   });
 
+  // Files past the reader's 2 GiB cap, made sparse (no disk used): a buffer and an image said "cannot read"
+  // (exit 4, as if the disk failed) or "is too large" without the sizes; now exit 2 with both, from every command.
+  await t.test('an external buffer, an image and a GLB over 2 GiB -> exit 2 naming the size and the cap', (st) => {
+    const d = tempDir(st);
+    const big = path.join(d, 'big.bin');
+    fs.writeFileSync(big, '');
+    fs.truncateSync(big, 2 ** 31 + 4);
+    const m = triangleModel();
+    writeGltfWithExternalBuffer(path.join(d, 'buffer.gltf'), 'big.bin', path.join(d, 'unused.bin'));
+    const bufferJson = JSON.parse(fs.readFileSync(path.join(d, 'buffer.gltf'), 'utf8'));
+    bufferJson.buffers[0].byteLength = 2 ** 31 + 4;
+    fs.writeFileSync(path.join(d, 'buffer.gltf'), JSON.stringify(bufferJson));
+    const sizes = /"big\.bin" is too large \(2147483652 bytes; at most 2147483648\)/;
+    assertRefusedByEveryCommand(st, path.join(d, 'buffer.gltf'), 2, sizes);
+    writeGltfWithExternalBuffer(path.join(d, 'image.gltf'), 'tri.bin', path.join(d, 'tri.bin'));
+    const imageJson = JSON.parse(fs.readFileSync(path.join(d, 'image.gltf'), 'utf8'));
+    imageJson.images = [{ uri: 'big.bin' }];
+    fs.writeFileSync(path.join(d, 'image.gltf'), JSON.stringify(imageJson));
+    assertRefusedByEveryCommand(st, path.join(d, 'image.gltf'), 2, sizes);
+    const glb = path.join(d, 'big.glb');
+    writeGlb(glb, m.json, m.bin);
+    fs.truncateSync(glb, 2 ** 31 + 4);
+    assertRefusedByEveryCommand(st, glb, 2, /is larger than the 2147483648-byte limit/);
+  });
+
   await t.test('a sparse accessor declaring 2^40 substitutions -> exit 2', (st) => {
     const m = triangleModel();
     m.json.accessors[0].sparse = { count: 2 ** 40, indices: { bufferView: 1, componentType: 5123 }, values: { bufferView: 0 } };

@@ -532,6 +532,19 @@ uint64_t require_regular_file(const std::string &full, const std::string &what, 
     return uint64_t(st.st_size);
 }
 
+// An external buffer's or image's size, refused when it is over the cap the
+// reader keeps to (its bytes would not be read).
+uint64_t require_file_within_cap(const std::string &full, const std::string &what, const std::string &uri,
+                                 const gltf_load_options &opt)
+{
+    const uint64_t size = require_regular_file(full, what, uri);
+    const uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
+    if (size > cap)
+        fail(GLTF_INVALID, what + ": " + quoted(uri) + " is too large (" + std::to_string(size) + " bytes; at most " +
+                               std::to_string(cap) + ")");
+    return size;
+}
+
 std::string dir_of(const std::string &path)
 {
     size_t slash = path.find_last_of('/');
@@ -965,11 +978,7 @@ void check_buffer_source(const ojson &buffer, size_t b, bool glb, const uint8_t 
         check_buffer_data_uri(where, uri, declared);
     } else {
         const std::string full = external_file_of(where, uri, opt, dir);
-        const uint64_t size = require_regular_file(full, where, uri);
-        uint64_t cap = opt.max_file_bytes ? opt.max_file_bytes : kDefaultMaxFileBytes;
-        if (size > cap)
-            fail(GLTF_INVALID, where + ": " + quoted(uri) + " is too large (" + std::to_string(size) + " bytes; at most " +
-                                   std::to_string(cap) + ")");
+        const uint64_t size = require_file_within_cap(full, where, uri, opt);
         if (size != declared) fail_byte_length(where + ": " + quoted(uri), size, declared);
     }
 }
@@ -1042,7 +1051,7 @@ void check_buffers_and_views(const ojson &root, const gltf_load_options &opt, co
             if (meshopt_name(views[v])) fail(GLTF_INVALID, path + " is stored in a meshopt-compressed bufferView");
         } else if (images[i].contains("uri")) {
             const std::string uri = images[i]["uri"].get<std::string>();
-            if (!is_data_uri(uri)) require_regular_file(external_file_of(path, uri, opt, dir), path, uri);
+            if (!is_data_uri(uri)) require_file_within_cap(external_file_of(path, uri, opt, dir), path, uri, opt);
             else if (data_uri_bytes(path, uri) == 0) fail(GLTF_INVALID, path + ".uri holds no data");
         }
     }
