@@ -282,6 +282,8 @@ static int canonical_entry(const char *path, char *out, size_t size)
  * number (a FUSE exFAT volume does). */
 static int case_variants(const char *a, const char *b)
 {
+    const char *na = strrchr(a, '/'), *nb = strrchr(b, '/');
+    if (strcasecmp(na ? na + 1 : a, nb ? nb + 1 : b) != 0) return 0; /* the common case, without a system call */
     char ca[8192], cb[8192], folder[8192];
     if (!canonical_entry(a, ca, sizeof ca) || !canonical_entry(b, cb, sizeof cb)) return 0;
     if (strcmp(ca, cb) == 0 || strcasecmp(ca, cb) != 0) return 0;
