@@ -144,10 +144,12 @@ export function caseBlindVolume(t) {
   if (process.getuid() !== 0) return { skip: 'mounting a volume needs root' };
   const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'lodpipe-exfat-'));
   const image = path.join(dir, 'volume.img'), mount = path.join(dir, 'mnt');
-  const sh = (cmd, ...args) => spawnSync(cmd, args, { encoding: 'utf8', timeout: 30000 });
+  // the tools live in sbin, which a PATH may leave out
+  const where = (cmd) => ['/usr/sbin', '/sbin', '/usr/bin', '/bin'].map((d) => path.join(d, cmd)).find((f) => fs.existsSync(f));
+  const sh = (cmd, ...args) => spawnSync(where(cmd) ?? cmd, args, { encoding: 'utf8', timeout: 30000 });
   let device = null, mounted = false;
   t.after(() => {
-    if (mounted) sh('umount', mount);
+    if (mounted && sh('umount', mount).status !== 0) sh('umount', '-l', mount); // lazily when still busy
     if (device) sh('losetup', '-d', device);
     fs.rmSync(dir, { recursive: true, force: true });
   });
