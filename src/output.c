@@ -220,15 +220,23 @@ int output_write_all(const char *main_path, const gltf_out_file *files, size_t c
                 rc = lp_fail(err, LP_USAGE, "%s (written with the output) is %s; choose another output name", targets[i],
                              guards[g].why);
     }
-    /* two names for one file on a volume that ignores case (an input's
-     * images T.png and t.png written to an exFAT or Windows share): the later
-     * would silently replace the earlier */
+    /* two of the files are one with other bytes: the later would silently
+     * replace the earlier (an input's image named like the output's .bin;
+     * images T.png and t.png written to an exFAT or Windows share) */
     for (size_t i = 0; i < count && !rc; ++i)
-        for (size_t k = i + 1; k < count && !rc; ++k)
-            if (strcasecmp(targets[i], targets[k]) == 0 && strcmp(targets[i], targets[k]) != 0 &&
-                output_folder_ignores_case(base))
+        for (size_t k = i + 1; k < count && !rc; ++k) {
+            if (strcasecmp(targets[i], targets[k]) != 0 ||
+                (files[i].size == files[k].size &&
+                 (!files[i].size || memcmp(files[i].bytes, files[k].bytes, files[i].size) == 0)))
+                continue;
+            if (strcmp(targets[i], targets[k]) == 0)
+                rc = lp_fail(err, LP_USAGE, "%s (written with the output) would be two files with other bytes (an input "
+                                            "file named like one the output writes); choose another output name",
+                             targets[i]);
+            else if (output_folder_ignores_case(base))
                 rc = lp_fail(err, LP_USAGE, "%s and %s (written with the output) are one file on this file system; rename one of them",
                              targets[i], targets[k]);
+        }
     for (size_t i = 0; i < also_count && !rc; ++i) rc = output_check_folder(also[i].path, err);
     output_set *set = NULL;
     if (!rc) rc = output_set_begin(&set, err); /* before anything is written */

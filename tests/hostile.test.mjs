@@ -659,6 +659,27 @@ test('safe writes: refusal, missing and read-only folders, full disk', { skip },
     assert.ok(fs.readFileSync(glbAsBin).equals(fs.readFileSync(DUCK)), 'the input is unchanged');
   });
 
+  // An image named like the .bin a .gltf output writes (uri "out.bin", -o DIR/out.gltf): the image's copy replaced
+  // the buffer, and the output, exit 0, read a PNG as its geometry (QA). Two files of one output with one name and
+  // other bytes are refused before anything is written.
+  await t.test('an input image named like the output\'s .bin -> exit 1, nothing written', (st) => {
+    const dir = tempDir(st), out = tempDir(st);
+    const truck = JSON.parse(fs.readFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck.gltf'), 'utf8'));
+    truck.images[0].uri = 'out.bin';
+    fs.writeFileSync(path.join(dir, 'truck.gltf'), JSON.stringify(truck));
+    fs.copyFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck0.bin'), path.join(dir, 'CesiumMilkTruck0.bin'));
+    fs.copyFileSync(corpusPath('scenes/CesiumMilkTruck/CesiumMilkTruck.png'), path.join(dir, 'out.bin'));
+    for (const args of [[path.join(dir, 'truck.gltf'), '-o', path.join(out, 'out.gltf')],
+                        ['convert', path.join(dir, 'truck.gltf'), path.join(out, 'out.gltf')]]) {
+      const r = runLodpipe(args);
+      assert.deepEqual(refusalProblems(r, 1, `${path.join(out, 'out.bin')} (written with the output) would be two files`,
+        out, []), [], describeRun(r));
+    }
+    const other = runLodpipe([path.join(dir, 'truck.gltf'), '-o', path.join(out, 'lod.gltf')]);
+    assert.deepEqual(mainJobProblems(other, path.join(out, 'lod.gltf')), [], describeRun(other));
+    assert.ok(fs.readFileSync(path.join(out, 'out.bin')).equals(fs.readFileSync(path.join(dir, 'out.bin'))), 'the image');
+  });
+
   // On a case-insensitive volume (exFAT, as a Windows or macOS share) scene.gltf IS Scene.gltf, and data.bin IS
   // Data.bin; FUSE's exFAT gives each name its own inode number, so the identity check alone missed both (QA:
   // the input was replaced, exit 0). Names that differ only in case are one file where the folder ignores case.
