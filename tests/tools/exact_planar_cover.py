@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
 """Exact proof that two planar meshes cover the same points (two-sided Hausdorff distance 0),
 for the levels the CGAL tool cannot settle: a sheet exactly flat in float32 (every z equal,
-1e5 from the origin), certified exact, where its branch and bound refines without end.
+1e5 from the origin), or a few such sheets, certified exact, where its branch and bound
+refines without end.
 
 Coordinates are read as float32 (as exact_vertex_distance.py does) and used as exact
-rationals. The proof: every vertex has the same z; every used triangle of both meshes has
-positive (or every one negative) orientation in the xy plane, none zero, so at a point p the
+rationals. The proof, for each plane that triangles of either mesh lie in (when each
+plane's part of A covers what its part of B covers, so do the unions): every triangle
+of both meshes in it faces the same way, none has zero area, so at a point p the
 number of triangles covering p is the winding number of the mesh's border around p; the two
 borders, as directed edges split at every border vertex of either mesh lying on them, are the
 same multiset of segments, so the winding numbers, hence the covering counts, are equal
@@ -42,7 +44,7 @@ def orient(a, b, c):
 
 
 def border(vertices, faces):
-    """Directed border edges (as point pairs): those whose reverse no triangle has."""
+    """Directed border edges (as point pairs of `vertices`, 2D): those whose reverse no triangle has."""
     directed = Counter()
     for f in faces:
         for i in range(3):
@@ -50,7 +52,7 @@ def border(vertices, faces):
     edges = []
     for (u, v), n in directed.items():
         inner = min(n, directed.get((v, u), 0))
-        edges += [(vertices[u][:2], vertices[v][:2])] * (n - inner)
+        edges += [(vertices[u], vertices[v])] * (n - inner)
     return edges
 
 
@@ -73,28 +75,54 @@ def split(edges, points):
     return +out
 
 
+def plane_of(a, b, c):
+    """The triangle's plane as an exact key (normal scaled so its first nonzero component is 1, and
+    the offset): triangles of either facing share it. None for a zero-area triangle."""
+    u = [b[i] - a[i] for i in range(3)]
+    w = [c[i] - a[i] for i in range(3)]
+    n = [u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]]
+    lead = next((x for x in n if x != 0), None)
+    if lead is None:
+        return None
+    n = tuple(x / lead for x in n)
+    return n, sum(n[i] * a[i] for i in range(3))
+
+
 def main():
     if len(sys.argv) != 3:
         print(__doc__)
         return 2
     meshes = [load(p) for p in sys.argv[1:]]
-    used = [[v[i] for f in faces for i in f] for v, faces in meshes]
-    zs = {p[2] for u in used for p in u}
-    if len(zs) != 1:
-        return report(False, f'{len(zs)} different z values among the used vertices')
-    signs = set()
-    for v, faces in meshes:
+    # the triangles grouped by their plane, each group compared alone
+    planes = {}
+    for m, (v, faces) in enumerate(meshes):
         for f in faces:
-            signs.add((orient(v[f[0]], v[f[1]], v[f[2]]) > 0) - (orient(v[f[0]], v[f[1]], v[f[2]]) < 0))
-    if 0 in signs or len(signs) != 1:
-        return report(False, f'triangle orientations {sorted(signs)} (need one sign, none zero)')
-    borders = [border(v, faces) for v, faces in meshes]
-    points = {p for b in borders for e in b for p in e}
-    cut = [split(b, points) for b in borders]
-    if cut[0] != cut[1]:
-        return report(False, f'the borders differ ({sum(cut[0].values())} and {sum(cut[1].values())} segments)')
-    return report(True, f'one plane z = {float(zs.pop())}, {sum(len(f) for _, f in meshes)} triangles of one '
-                        f'orientation, equal borders of {sum(cut[0].values())} segments')
+            key = plane_of(v[f[0]], v[f[1]], v[f[2]])
+            if key is None:
+                return report(False, f'a triangle of mesh {m + 1} has zero area')
+            planes.setdefault(key, ([], []))[m].append(f)
+    segments = triangles = 0
+    for (normal, offset), faces in planes.items():
+        drop = max(range(3), key=lambda i: abs(normal[i]))  # the projection along it is one to one
+        keep = [i for i in range(3) if i != drop]
+        flat = [[(p[keep[0]], p[keep[1]]) for p in meshes[m][0]] for m in range(2)]
+        signs = set()
+        for m, fs in enumerate(faces):
+            for f in fs:
+                o = orient(flat[m][f[0]], flat[m][f[1]], flat[m][f[2]])
+                signs.add((o > 0) - (o < 0))
+        if len(signs) != 1:
+            return report(False, f'a plane with triangles of both facings')
+        borders = [border(flat[m], fs) for m, fs in enumerate(faces)]
+        points = {p for b in borders for e in b for p in e}
+        cut = [split(b, points) for b in borders]
+        if cut[0] != cut[1]:
+            return report(False, f'in a plane, the borders differ ({sum(cut[0].values())} and '
+                                 f'{sum(cut[1].values())} segments)')
+        segments += sum(cut[0].values())
+        triangles += sum(len(fs) for fs in faces)
+    return report(True, f'{len(planes)} plane(s), {triangles} triangles, each plane\'s of one facing, '
+                        f'equal borders of {segments} segments')
 
 
 def report(proven, why):
