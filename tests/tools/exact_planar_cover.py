@@ -17,42 +17,32 @@ usage: exact_planar_cover.py A.obj B.obj
 prints one JSON line: {"proven": true|false, "why": ...}; exit 0 when proven, 1 when not
 (which proves nothing either way), 2 on bad input."""
 import json
-import struct
 import sys
 from collections import Counter
 from fractions import Fraction
 
-
-def f32(text):
-    return Fraction(struct.unpack('f', struct.pack('f', float(text)))[0])
+from exact_vertex_distance import cross, load, sub
 
 
-def load(path):
-    vertices, faces = [], []
-    with open(path) as f:
-        for line in f:
-            p = line.split()
-            if p and p[0] == 'v':
-                vertices.append(tuple(f32(x) for x in p[1:4]))
-            elif p and p[0] == 'f':
-                faces.append(tuple(int(x.split('/')[0]) - 1 for x in p[1:4]))
-    return vertices, faces
+def load_exact(path):
+    """The OBJ as exact_vertex_distance.py reads it (float32 values), coordinates as rationals."""
+    vertices, faces = load(path)
+    return [tuple(Fraction(x) for x in v) for v in vertices], faces
 
 
 def orient(a, b, c):
     return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 
 
-def border(vertices, faces):
-    """Directed border edges (as point pairs of `vertices`, 2D): those whose reverse no triangle has."""
+def border(triangles):
+    """Directed border edges of triangles given as point triples: those whose reverse no triangle has."""
     directed = Counter()
-    for f in faces:
+    for t in triangles:
         for i in range(3):
-            directed[(f[i], f[(i + 1) % 3])] += 1
+            directed[(t[i], t[(i + 1) % 3])] += 1
     edges = []
-    for (u, v), n in directed.items():
-        inner = min(n, directed.get((v, u), 0))
-        edges += [(vertices[u], vertices[v])] * (n - inner)
+    for (a, b), n in directed.items():
+        edges += [(a, b)] * (n - min(n, directed.get((b, a), 0)))
     return edges
 
 
@@ -78,9 +68,7 @@ def split(edges, points):
 def plane_of(a, b, c):
     """The triangle's plane as an exact key (normal scaled so its first nonzero component is 1, and
     the offset): triangles of either facing share it. None for a zero-area triangle."""
-    u = [b[i] - a[i] for i in range(3)]
-    w = [c[i] - a[i] for i in range(3)]
-    n = [u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]]
+    n = cross(sub(b, a), sub(c, a))
     lead = next((x for x in n if x != 0), None)
     if lead is None:
         return None
@@ -92,35 +80,36 @@ def main():
     if len(sys.argv) != 3:
         print(__doc__)
         return 2
-    meshes = [load(p) for p in sys.argv[1:]]
-    # the triangles grouped by their plane, each group compared alone
+    try:
+        meshes = [load_exact(p) for p in sys.argv[1:]]
+    except (OSError, ValueError, IndexError) as e:
+        print(f'exact_planar_cover.py: {e}', file=sys.stderr)
+        return 2
+    # the triangles, as point triples, grouped by their plane; each group compared alone
     planes = {}
     for m, (v, faces) in enumerate(meshes):
         for f in faces:
-            key = plane_of(v[f[0]], v[f[1]], v[f[2]])
+            t = (v[f[0]], v[f[1]], v[f[2]])
+            key = plane_of(*t)
             if key is None:
                 return report(False, f'a triangle of mesh {m + 1} has zero area')
-            planes.setdefault(key, ([], []))[m].append(f)
+            planes.setdefault(key, ([], []))[m].append(t)
     segments = triangles = 0
-    for (normal, offset), faces in planes.items():
+    for (normal, _), groups in planes.items():
         drop = max(range(3), key=lambda i: abs(normal[i]))  # the projection along it is one to one
         keep = [i for i in range(3) if i != drop]
-        flat = [[(p[keep[0]], p[keep[1]]) for p in meshes[m][0]] for m in range(2)]
-        signs = set()
-        for m, fs in enumerate(faces):
-            for f in fs:
-                o = orient(flat[m][f[0]], flat[m][f[1]], flat[m][f[2]])
-                signs.add((o > 0) - (o < 0))
+        flat = [[tuple((p[keep[0]], p[keep[1]]) for p in t) for t in ts] for ts in groups]
+        signs = {(o > 0) - (o < 0) for ts in flat for o in (orient(*t) for t in ts)}
         if len(signs) != 1:
-            return report(False, f'a plane with triangles of both facings')
-        borders = [border(flat[m], fs) for m, fs in enumerate(faces)]
+            return report(False, 'a plane with triangles of both facings')
+        borders = [border(ts) for ts in flat]
         points = {p for b in borders for e in b for p in e}
         cut = [split(b, points) for b in borders]
         if cut[0] != cut[1]:
             return report(False, f'in a plane, the borders differ ({sum(cut[0].values())} and '
                                  f'{sum(cut[1].values())} segments)')
         segments += sum(cut[0].values())
-        triangles += sum(len(fs) for fs in faces)
+        triangles += sum(len(ts) for ts in groups)
     return report(True, f'{len(planes)} plane(s), {triangles} triangles, each plane\'s of one facing, '
                         f'equal borders of {segments} segments')
 
