@@ -408,7 +408,7 @@ static simplify_options simplify_options_of(const cli *c)
     uint32_t full_edge = 0;
     if (c->config.lod.placement == 1) full_edge = c->config.lod.optimal_levels ? c->config.lod.optimal_levels & every : every;
     simplify_options opt = {c->levels, (uint32_t)c->config.lod.level_count, (uint32_t)c->config.run.threads,
-                            c->config.lod.flip_cos, 0, c->config.lod.strict_intersections, full_edge, 0};
+                            c->config.lod.flip_cos, 0, c->config.lod.strict_intersections, full_edge, 0, 0};
     const char *verify = getenv("LODPIPE_VERIFY");
     opt.verify = verify && strcmp(verify, "0") != 0;
     return opt;
@@ -774,6 +774,14 @@ static void warn_dangling(const char *in, uint32_t m, uint32_t count)
            "every level keeps them as they are (their vertices are never removed)", in, m, count);
 }
 
+/* The warning for mesh m's held vertices (simplify.h), the same from
+ * `simplify` and the main job. */
+static void warn_held(const char *in, uint32_t m, uint32_t count)
+{
+    lp_say("%s: warning: meshes[%u]: %u vertices are kept at every level: they have, or neighbour a vertex that has, "
+           "more than 4,096 triangles around it (a fan from one point)", in, m, count);
+}
+
 /* The OBJ that `lodpipe simplify` writes for a mesh's level (0: the welded
  * original). */
 static void level_obj_path(char *out, size_t size, const char *dir, uint32_t mesh, uint32_t level)
@@ -855,11 +863,12 @@ static int cmd_simplify(const cli *c)
             fprintf(j, "%s{\"mesh\":%u,\"name\":", first ? "" : ",", m);
             json_string(j, mesh->name);
             fprintf(j, ",\"diagonal\":%.17g,\"triangles\":%u,\"weld\":{\"vertices\":%u,\"locked\":%u,\"degenerate_dropped\":%u,"
-                       "\"degenerate_dangling\":%u,\"back_faces\":%u},\"seconds_weld\":%.6f,\"seconds_setup\":%.6f,\"levels\":[",
+                       "\"degenerate_dangling\":%u,\"back_faces\":%u},\"seconds_weld\":%.6f,\"seconds_setup\":%.6f,\"held\":%u,\"levels\":[",
                     r.diagonal, weld_level0_triangles(&w), w.vertex_count, w.stats.vertices_by_kind[WELD_LOCKED],
                     w.stats.degenerate_triangles, w.stats.degenerate_dangling, w.back_count, r.seconds_weld,
-                    r.seconds_setup);
+                    r.seconds_setup, r.held_vertices);
             if (w.dangling_count && !c->quiet) warn_dangling(in, m, w.dangling_count);
+            if (r.held_vertices && !c->quiet) warn_held(in, m, r.held_vertices);
             for (uint32_t k = 0; k < r.level_count; ++k) {
                 const simplify_level *l = &r.levels[k];
                 fprintf(j, "%s{\"level\":%u,\"fraction\":%.17g,\"eps\":%.17g,\"bound\":%.17g,\"triangles\":%u,\"seconds\":%.6f,",
@@ -1045,6 +1054,7 @@ static int cmd_lod(const cli *c)
         if (rc) err = a->err;
         if (!rc) rc = scene_reload_mesh_data(&s, m, &err);
         if (welded && w.dangling_count && !c->quiet) warn_dangling(in, m, w.dangling_count);
+        if (welded && r.held_vertices && !c->quiet) warn_held(in, m, r.held_vertices);
         for (uint32_t k = 0; welded && draco && k < r.level_count; ++k) r.levels[k].eps = c->levels[k] * r.diagonal;
         if (!rc && draco) /* the quantization bound goes into the recorded errors */
             rc = dracoout_plan_mesh(&s, m, &w, &r, chain.min_reduction, &draco_opt, bits, &plan, &err);

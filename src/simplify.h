@@ -75,6 +75,9 @@ typedef struct simplify_options {
     int strict_intersections; /* self-intersection test everywhere, not only where the original is thin */
     uint32_t full_edge_levels;/* bit k: level k may use full-edge placement (0: half-edge only) */
     uint32_t region_vertices; /* vertices per region of the region rounds (0: the default; for tests) */
+    uint32_t hub_faces;       /* more faces than this around a vertex make it a hub, held with its
+                                 neighbours (simplify_result.held_vertices); no collapse makes one
+                                 (0: the default, 4,096; for tests) */
 } simplify_options;
 
 enum {
@@ -136,6 +139,10 @@ typedef struct simplify_level {
 typedef struct simplify_result {
     double diagonal;
     double seconds_setup; /* before the first level: BVH, clusters, quadrics, lists */
+    /* vertices no level removes because they are, or neighbour, a vertex
+     * with more than 4,096 faces around it (a fan from one point): the
+     * collapses next to one would each read all its faces */
+    uint32_t held_vertices;
     double seconds_weld;  /* set by the caller that welded the mesh (0 otherwise) */
     uint32_t level_count;
     simplify_level levels[SIMPLIFY_MAX_LEVELS];

@@ -151,11 +151,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     /* the input's last byte chooses the placement, so both kinds of collapse
      * are fuzzed: odd = lod.placement "optimal" on every level; and whether
      * levels begin with region rounds (bit 1: regions of 16 vertices, so
-     * that these small meshes have several) */
+     * that these small meshes have several); bit 2: hubs from 7 faces around
+     * a vertex (simplify.h: hub_faces), held with their neighbours, and no
+     * collapse that would make one, at a size these small inputs reach */
     const uint32_t full_edge = size && (data[size - 1] & 1u) ? (uint32_t)((1ull << levels) - 1u) : 0;
     const uint32_t regions = size && (data[size - 1] & 2u) ? 16 : 0;
+    const uint32_t hub_faces = size && (data[size - 1] & 4u) ? 6 : 0;
     const simplify_options opt = {fractions, levels, 1, config.lod.flip_cos, 0, config.lod.strict_intersections,
-                                  full_edge, regions};
+                                  full_edge, regions, hub_faces};
     const lodchain_options chain = {{config.switching.pixel_error, config.switching.viewport_height,
                                      config.switching.fov_y},
                                     config.lod.min_reduction, 0, NULL, 1};

@@ -201,6 +201,25 @@ def case_degenerate_strip(g):
     g.add_mesh('strip', [g.primitive(pos, strip, mode=5)])
 
 
+def case_hub(g):
+    # A cone of 20,000 faces around its apex, and the grid as a second mesh: more than 4,096 faces
+    # around one vertex make it a hub, held with its neighbours (simplify.c: HUB_FACES), so the cone
+    # keeps no level; the collapses next to it cost about n squared before (this cone took 23 s, one of
+    # 100,000 faces more than 7 minutes). The grid gets its chain.
+    pos, nor, uv, idx = grid()
+    g.add_mesh('grid', [g.primitive(pos, idx, nor, uv)])
+    sectors, apex = 20000, 0
+    pos, nor, uv, idx = [2.5, 0.5, 0.5], [0.0, 0.0, 1.0], [0.5, 0.5], []
+    for t in range(sectors):
+        a = 2 * math.pi * t / sectors
+        pos += [2.5 + 0.5 * math.cos(a), 0.5 + 0.5 * math.sin(a), 0.0]
+        nor += [0.0, 0.0, 1.0]
+        uv += [0.5 + 0.5 * math.cos(a), 0.5 + 0.5 * math.sin(a)]
+    for t in range(sectors):
+        idx += [apex, apex + 1 + t, apex + 1 + (t + 1) % sectors]
+    g.add_mesh('cone', [g.primitive(pos, idx, nor, uv)])
+
+
 CASES = [
     ('zero_area_triangles', case_zero_area, 'zero-area triangles: one on a grid edge (non-manifold), one degenerate by index, one of three collinear points', 'have no area'),
     ('duplicate_triangles', case_duplicate_triangles, 'triangles repeated, some with the opposite winding', 'repeat the vertices'),
@@ -213,6 +232,8 @@ CASES = [
     ('tiny_scale', case_tiny_scale, 'the grid scaled by 1e-30', None),
     ('huge_scale', case_huge_scale, 'the grid scaled by 1e30', None),
     ('degenerate_strip', case_degenerate_strip, 'a triangle strip with repeated indices between its rows', 'off its surface'),
+    ('hub', case_hub, 'a cone of 20,000 faces around one vertex: kept whole; a grid beside it simplified',
+     '20001 vertices are kept at every level'),
 ]
 
 

@@ -141,6 +141,8 @@ static double now(void)
 
 /* simplify_options.full_edge_levels for the next run_simplify calls */
 static uint32_t g_full_edge_levels;
+/* simplify_options.hub_faces likewise (0: the default) */
+static uint32_t g_hub_faces;
 /* simplify_options.region_vertices likewise: 0 leaves these small meshes
  * to the global passes; a small size sends them through region rounds */
 static uint32_t g_region_vertices;
@@ -194,6 +196,7 @@ static int run_simplify(run *rn, const mesh *m, const double *fractions, uint32_
     o.verify = verify;
     o.full_edge_levels = g_full_edge_levels;
     o.region_vertices = g_region_vertices;
+    o.hub_faces = g_hub_faces;
     int64_t material[2] = {rn->prim[0].material, rn->prim[1].material};
     double t0 = now();
     rc = simplify_mesh(&rn->w, material, &o, &rn->r, &err);
@@ -1808,6 +1811,93 @@ static void test_border_floors(void)
     mesh_free(&m);
 }
 
+/* ---- hubs (simplify.c: HUB_FACES) ------------------------------------------- */
+
+#define HUB_FACES 4096 /* simplify.c's limit, as simplify.h states it */
+
+/* The most faces around one vertex of level k (k == UINT32_MAX: the weld's
+ * triangles). */
+static uint32_t max_faces_around(const run *rn, uint32_t k)
+{
+    uint32_t *count = calloc(rn->w.vertex_count + 1, sizeof *count), most = 0;
+    if (!count) abort();
+    const uint32_t n = k == UINT32_MAX ? rn->w.triangle_count : rn->r.levels[k].triangle_count;
+    for (uint32_t f = 0; f < n; ++f)
+        for (int c = 0; c < 3; ++c) {
+            const uint32_t v = k == UINT32_MAX ? rn->w.triangle_vertices[3 * (size_t)f + (uint32_t)c] : level_vertex(rn, k, f, c);
+            if (++count[v] > most) most = count[v];
+        }
+    free(count);
+    return most;
+}
+
+/* A cone of 5,000 faces around its apex (a hub) beside a bumpy sphere, in
+ * one mesh: the apex and its 5,000 neighbours are held (before the limit
+ * the cone cost about n squared: a cone of 100,000 faces did not finish in 7
+ * minutes), so every level keeps the cone whole, while the sphere simplifies
+ * as usual, within its bound. And no collapse makes a hub (below). */
+static void test_hubs(void)
+{
+    mesh m;
+    mesh_init(&m);
+    build_icosphere(&m, 3, geom_vec3d(0, 0, 0));
+    const uint32_t sphere_faces = m.nt, sectors = 5000;
+    const uint32_t apex = mesh_vertex(&m, 3, 0, 1);
+    for (uint32_t t = 0; t < sectors; ++t) {
+        const double a = 2.0 * M_PI * t / sectors;
+        mesh_vertex(&m, 3 + cos(a), sin(a), 0);
+    }
+    for (uint32_t t = 0; t < sectors; ++t) mesh_tri(&m, apex, apex + 1 + t, apex + 1 + (t + 1) % sectors);
+    run rn;
+    if (run_simplify(&rn, &m, default_ladder, 4, 0, 0) == LP_OK) {
+        check_structure("cone and sphere", &rn);
+        check_levels("cone and sphere", &rn, 8);
+        CHECK(rn.r.held_vertices == sectors + 1, "the apex and its neighbours are held: %u", rn.r.held_vertices);
+        for (uint32_t k = 0; k < rn.r.level_count; ++k) {
+            uint32_t cone = 0;
+            const simplify_level *L = &rn.r.levels[k];
+            for (uint32_t f = 0; f < L->triangle_count; ++f) cone += level_vertex(&rn, k, f, 0) == apex ||
+                                                                   level_vertex(&rn, k, f, 1) == apex ||
+                                                                   level_vertex(&rn, k, f, 2) == apex;
+            CHECK(cone == sectors, "level %u keeps the cone's %u faces: %u", k + 1, sectors, cone);
+            CHECK(L->triangle_count - cone < sphere_faces / 4, "level %u simplifies the sphere: %u of %u faces", k + 1,
+                  L->triangle_count - cone, sphere_faces);
+        }
+    }
+    run_free(&rn);
+    mesh_free(&m);
+
+    /* No collapse makes a hub: the bumpy sphere (at most 6 faces around a
+     * vertex) with the limit at 7 instead of 4,096 keeps every vertex of every
+     * level at 7 faces or fewer, and is still simplified within its bounds;
+     * with the default limit its levels have a vertex with 8. */
+    mesh_init(&m);
+    build_icosphere(&m, 3, geom_vec3d(0, 0, 0));
+    uint32_t most_default = 0;
+    if (run_simplify(&rn, &m, default_ladder, 4, 0, 0) == LP_OK)
+        for (uint32_t k = 0; k < rn.r.level_count; ++k) {
+            const uint32_t most = max_faces_around(&rn, k);
+            if (most > most_default) most_default = most;
+        }
+    run_free(&rn);
+    CHECK(most_default > 7, "with the default limit a level has a vertex with more than 7 faces: %u", most_default);
+    g_hub_faces = 7;
+    if (run_simplify(&rn, &m, default_ladder, 4, 0, 0) == LP_OK) {
+        check_structure("sphere, limit 7", &rn);
+        check_topology("sphere, limit 7", &rn, 2, 0);
+        check_levels("sphere, limit 7", &rn, 8);
+        check_simplified("sphere, limit 7", &rn, m.nt);
+        CHECK(max_faces_around(&rn, UINT32_MAX) <= 6 && rn.r.held_vertices == 0, "no hub in the sphere: %u held",
+              rn.r.held_vertices);
+        for (uint32_t k = 0; k < rn.r.level_count; ++k)
+            CHECK(max_faces_around(&rn, k) <= 7, "sphere, limit 7, level %u: %u faces around one vertex", k + 1,
+                  max_faces_around(&rn, k));
+    }
+    g_hub_faces = 0;
+    run_free(&rn);
+    mesh_free(&m);
+}
+
 /* ---- translation by 1e5 ------------------------------------------------------- */
 
 /* The same bumpy sphere at the origin and moved by (1e5, 1e5, 1e5): every
@@ -2142,6 +2232,9 @@ static void run_cases(void)
 int main(void)
 {
     run_cases();
+    /* once: the cone and sphere have too few vertices of the sphere's in
+     * regions of 64 for the region rounds to commit (run_simplify's check) */
+    RUN(test_hubs);
     /* Every case again through region rounds (simplify.c: each region
      * simplified on its own, in parallel): regions of 64 vertices, so that
      * these small meshes have many regions and boundaries run everywhere. */
