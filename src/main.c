@@ -779,7 +779,7 @@ static void warn_dangling(const char *in, uint32_t m, uint32_t count)
 static void warn_held(const char *in, uint32_t m, uint32_t count)
 {
     lp_say("%s: warning: meshes[%u]: %u vertices are kept at every level: they have, or neighbour a vertex that has, "
-           "more than 4,096 triangles around it (a fan from one point)", in, m, count);
+           "more than %u triangles around it (a fan from one point)", in, m, count, SIMPLIFY_HUB_FACES);
 }
 
 /* The OBJ that `lodpipe simplify` writes for a mesh's level (0: the welded

@@ -77,9 +77,10 @@
  * short). */
 #define MAX_PASSES 100000
 #define MAX_THREADS 64
-/* A vertex with more faces around it than this is a hub (a fan from one
- * point: a cone's apex, a disc triangulated from its centre, the pole of a
- * sphere of that many segments): it and its neighbours are held for the
+/* Hubs: a vertex with more faces around it than SIMPLIFY_HUB_FACES
+ * (simplify.h) is a hub (a fan from one point: a cone's apex, a disc
+ * triangulated from its centre, the pole of a sphere of that many
+ * segments): it and its neighbours are held for the
  * whole ladder, and no collapse or removal gives a vertex more faces. Every
  * collapse next to a hub makes faces that meet all of its faces at the hub,
  * which the certificate and the intersection test look at, and the batches
@@ -90,7 +91,6 @@
  * 8,000 segments and 6 rings (80,000 triangles) keeps 32,156 triangles at 1
  * %, against 136 before, in 13 s against 27. A sphere of 2,000 segments is
  * below the limit and simplified as before (232 triangles at 1 %). */
-#define HUB_FACES 4096
 enum { HELD_NEIGHBOUR = 1, HELD_HUB = 2 };
 /* an evaluation's outcome besides SIMPLIFY_REJECT_*: in a region, the
  * candidate needs what another region may change; it waits for a round
@@ -343,7 +343,7 @@ typedef struct sim {
     uint64_t *region_key;
     radix_scratch region_sort;
     uint32_t region_vertices; /* vertices per region: 0 for REGION_SIZE */
-    uint32_t hub_faces;       /* HUB_FACES, or the options' (tests) */
+    uint32_t hub_faces;       /* SIMPLIFY_HUB_FACES, or the options' (tests) */
     uint32_t rounds;          /* region rounds run so far (all levels) */
     registry reg;
     cert_original orig;
@@ -353,7 +353,7 @@ typedef struct sim {
     int thin_ready; /* thin is this level's (thin_ready()) */
     thin_ahead ahead;
     uint8_t *special; /* border or locked vertices */
-    /* per vertex: 0, or held for the ladder (HUB_FACES): HELD_HUB, or
+    /* per vertex: 0, or held for the ladder (hub_faces): HELD_HUB, or
      * HELD_NEIGHBOUR of one; held_count of them */
     uint8_t *held;
     uint32_t held_count;
@@ -402,7 +402,7 @@ typedef struct collapse {
     double place[3];
 } collapse;
 
-/* Never removed in this ladder: locked by the weld, or held (HUB_FACES). */
+/* Never removed in this ladder: locked by the weld, or held (hub_faces). */
 static int fixed_vertex(const sim *s, uint32_t u) { return s->w->vertex_kind[u] == WELD_LOCKED || s->held[u]; }
 
 static uint32_t wedge_class_of_corner(const sim *s, uint32_t c)
@@ -3483,7 +3483,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     s->verify = o->verify;
     s->full_edge_levels = o->full_edge_levels;
     s->region_vertices = o->region_vertices;
-    s->hub_faces = o->hub_faces ? o->hub_faces : HUB_FACES;
+    s->hub_faces = o->hub_faces ? o->hub_faces : SIMPLIFY_HUB_FACES;
     s->positions = w->positions;
     if (o->full_edge_levels) {
         s->moved_positions = malloc((3 * (size_t)nv + 1) * sizeof *s->moved_positions);
@@ -3514,8 +3514,8 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     if (s->special)
         for (uint32_t v = 0; v < nv; ++v)
             s->special[v] = w->vertex_kind[v] == WELD_BORDER || w->vertex_kind[v] == WELD_LOCKED;
-    if (!s->special || !s->held || !s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next || !s->face_alive ||
-        !s->face_bound || !s->vertex_first || !s->vertex_alive || !s->movable || !s->change_stamp ||
+    if (!s->special || !s->held || !s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next ||
+        !s->face_alive || !s->face_bound || !s->vertex_first || !s->vertex_alive || !s->movable || !s->change_stamp ||
         !s->reject_stamp || !s->vertex_stamp || !s->quadrics)
         return -1;
     if (workpool_init(&s->pool, s->thread_count)) return -1;

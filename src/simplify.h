@@ -64,6 +64,9 @@
 #include "weld.h"
 
 #define SIMPLIFY_MAX_LEVELS 16
+/* A vertex with more faces around it than this is a hub: it and its
+ * neighbours are held at every level (simplify.c says why) */
+#define SIMPLIFY_HUB_FACES 4096
 
 typedef struct simplify_options {
     const double *fractions;  /* eps_k / diagonal, increasing, level_count of them */
@@ -77,7 +80,7 @@ typedef struct simplify_options {
     uint32_t region_vertices; /* vertices per region of the region rounds (0: the default; for tests) */
     uint32_t hub_faces;       /* more faces than this around a vertex make it a hub, held with its
                                  neighbours (simplify_result.held_vertices); no collapse makes one
-                                 (0: the default, 4,096; for tests) */
+                                 (0: SIMPLIFY_HUB_FACES; another value for tests) */
 } simplify_options;
 
 enum {
@@ -139,8 +142,8 @@ typedef struct simplify_level {
 typedef struct simplify_result {
     double diagonal;
     double seconds_setup; /* before the first level: BVH, clusters, quadrics, lists */
-    /* vertices no level removes because they are, or neighbour, a vertex
-     * with more than 4,096 faces around it (a fan from one point): the
+    /* vertices no level removes because they are, or neighbour, a hub (a
+     * fan from one point: more than options.hub_faces faces around it): the
      * collapses next to one would each read all its faces */
     uint32_t held_vertices;
     double seconds_weld;  /* set by the caller that welded the mesh (0 otherwise) */

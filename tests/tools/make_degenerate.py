@@ -203,7 +203,7 @@ def case_degenerate_strip(g):
 
 def case_hub(g):
     # A cone of 20,000 faces around its apex, and the grid as a second mesh: more than 4,096 faces
-    # around one vertex make it a hub, held with its neighbours (simplify.c: HUB_FACES), so the cone
+    # around one vertex make it a hub, held with its neighbours (simplify.h: SIMPLIFY_HUB_FACES), so the cone
     # keeps no level; the collapses next to it cost about n squared before (this cone took 23 s, one of
     # 100,000 faces more than 7 minutes). The grid gets its chain.
     pos, nor, uv, idx = grid()

@@ -1811,7 +1811,7 @@ static void test_border_floors(void)
     mesh_free(&m);
 }
 
-/* ---- hubs (simplify.c: HUB_FACES) ------------------------------------------- */
+/* ---- hubs (simplify.h: SIMPLIFY_HUB_FACES) ---------------------------------- */
 
 /* The most faces around one vertex of level k (k == UINT32_MAX: the weld's
  * triangles). */
