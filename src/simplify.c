@@ -298,7 +298,11 @@ typedef struct sim {
      * by the first pass, after the first level's memory peak. */
     double *cost;
     uint32_t *cost_clock, *cost_faces;
-    uint32_t *vertex_stamp; /* batch reservations: the batch_stamp of the batch whose W holds the vertex */
+    /* batch reservations (reserve_footprint): the batch_stamp of the batch
+     * whose W holds the vertex, and of the batch whose W holds it or one of
+     * its neighbours that is not a hub. Allocated by the first pass, after
+     * the region rounds' memory peak. */
+    uint32_t *vertex_stamp, *near_stamp;
     uint32_t batch_stamp;
     quadric *quadrics;
     double origin[3];
@@ -2096,6 +2100,31 @@ static int two_ball(const sim *s, scratch *sc, u32vec *ring, uint32_t v, const u
     return 1;
 }
 
+/* 1 when u's R meets no W reserved in the current batch, from the near marks
+ * (reserve_footprint). */
+static int footprint_free(const sim *s, uint32_t u)
+{
+    const uint32_t stamp = s->batch_stamp;
+    for (uint32_t c = s->vertex_first[u]; c != NONE; c = s->corner_next[c]) {
+        if (!s->face_alive[c / 3] || s->corner_vertex[c] != u) continue;
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t x = s->corner_vertex[3 * (c / 3) + k];
+            if (s->held[x] == HELD_HUB) {
+                if (s->vertex_stamp[x] == stamp) return 0;
+                continue;
+            }
+            if (s->near_stamp[x] == stamp) return 0;
+            if (s->held[x] != HELD_NEIGHBOUR) continue;
+            for (uint32_t d = s->vertex_first[x]; d != NONE; d = s->corner_next[d]) {
+                if (!s->face_alive[d / 3] || s->corner_vertex[d] != x) continue;
+                for (int j = 0; j < 3; ++j)
+                    if (s->vertex_stamp[s->corner_vertex[3 * (d / 3) + j]] == stamp) return 0;
+            }
+        }
+    }
+    return 1;
+}
+
 /* Reserves a candidate's neighbourhood in the current batch. Its evaluation
  * reads the faces around every vertex within two edges of u (R, the 2-ball);
  * its commit writes the faces around u and the lists and quadric of one
@@ -2104,22 +2133,50 @@ static int two_ball(const sim *s, scratch *sc, u32vec *ring, uint32_t v, const u
  * 2-ball. Two candidates are independent when neither's W meets the other's
  * R, that is when they are more than 2 + w edges apart (w = 1, or 2 with
  * placement); and that holds exactly when u's R meets no W reserved before
- * (the other half of the condition says the same thing), so only the W's
- * are marked. Registrations are checked at commit (unit_stamp). Returns 1
- * and marks u's W, or 0 when the candidate must wait. */
+ * (the other half of the condition says the same thing). Registrations are
+ * checked at commit (unit_stamp). Returns 1 and marks u's W, or 0 when the
+ * candidate must wait.
+ *
+ * R is two_ball's walk: u, its neighbours, and the neighbours of those that
+ * are not hubs. Walking it for every candidate cost a pass the star of every
+ * large fan next to a candidate, again for each candidate that then had to
+ * wait (a UV sphere's pole of 4,000 faces: every candidate of a pass walked
+ * it). So the test is turned around: a reservation marks, beside W
+ * (vertex_stamp), the vertices next to W (near_stamp: W and the neighbours
+ * of its vertices that are not hubs), and u's R meets W exactly when some x
+ * of u's 1-ball is near, or (x being a hub's neighbour, whose hub's star
+ * near_stamp does not reach) x has a neighbour in W. The decisions, and so
+ * the levels, are those of walking R; a candidate that waits reads only its
+ * own 1-ball. */
 static int reserve_footprint(sim *s, uint32_t u)
 {
+    const uint32_t stamp = s->batch_stamp;
     scratch *sc = &s->serial;
-    const uint32_t batch_stamp = s->batch_stamp;
     size_t one_ring_end;
-    /* each vertex is checked as it is reached, so a candidate that must wait
-     * (most of them, late in a pass) stops at the first conflict (R meets
-     * a W) */
-    const int r = two_ball(s, sc, &sc->ring, u, s->vertex_stamp, batch_stamp, 2, &one_ring_end);
-    if (r < 0) return sc->oom = 1, 0;
-    if (r == 0) return 0;
-    const size_t write_end = s->full_edge ? sc->ring.size : one_ring_end;
-    for (size_t i = 0; i < write_end; ++i) s->vertex_stamp[sc->ring.data[i]] = batch_stamp;
+    const int free_now = footprint_free(s, u);
+    if (s->verify) { /* the invariant checker's mode: the decision is that of walking R */
+        const int walked = two_ball(s, sc, &sc->ring, u, s->vertex_stamp, stamp, 2, &one_ring_end);
+        if (walked < 0) return sc->oom = 1, 0;
+        if (walked != free_now) {
+            s->verify_failed = 1;
+            snprintf(s->verify_msg, sizeof s->verify_msg,
+                     "reservation of %u: the near marks say %s, walking its 2-ball says %s", u,
+                     free_now ? "free" : "taken", walked ? "free" : "taken");
+            return 0;
+        }
+    }
+    if (!free_now) return 0;
+    if (two_ball(s, sc, &sc->ring, u, NULL, 0, s->full_edge ? 2 : 1, &one_ring_end) < 0) return sc->oom = 1, 0;
+    for (size_t i = 0; i < sc->ring.size; ++i) {
+        const uint32_t y = sc->ring.data[i];
+        s->vertex_stamp[y] = stamp;
+        s->near_stamp[y] = stamp;
+        if (s->held[y] == HELD_HUB) continue;
+        for (uint32_t c = s->vertex_first[y]; c != NONE; c = s->corner_next[c]) {
+            if (!s->face_alive[c / 3] || s->corner_vertex[c] != y) continue;
+            for (int k = 0; k < 3; ++k) s->near_stamp[s->corner_vertex[3 * (c / 3) + k]] = stamp;
+        }
+    }
     return 1;
 }
 
@@ -2260,6 +2317,11 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
 {
     simplify_stats *st = s->stats;
     double t0 = lp_seconds();
+    if (!s->vertex_stamp) {
+        s->vertex_stamp = calloc((size_t)s->nv + 1, sizeof *s->vertex_stamp);
+        s->near_stamp = calloc((size_t)s->nv + 1, sizeof *s->near_stamp);
+        if (!s->vertex_stamp || !s->near_stamp) return s->serial.oom = 1, -1;
+    }
     if (!s->grid_current && grid_rebuild(s)) return -1;
     if (merge_clusters(s)) return -1;
     const long collected = collect_candidates(s, ranks);
@@ -2279,7 +2341,7 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
         double t1 = lp_seconds();
         for (; i < n && count < BATCH_SIZE; ++i) {
             if (!reserve_footprint(s, ranks[i].u)) {
-                if (s->serial.oom) break;
+                if (s->serial.oom || s->verify_failed) break;
                 (*waiting)++;
                 continue;
             }
@@ -2290,7 +2352,7 @@ static long run_pass(sim *s, ranked *ranks, candidate *batch, size_t *waiting)
         st->seconds_select += t2 - t1;
         batch_close(s, &run);
         st->seconds_certify += lp_seconds() - t2;
-        if (s->serial.oom) return -1;
+        if (s->serial.oom || s->verify_failed) return -1;
         if (count) process_batch(s, batch, count, &commits);
         if (commits < 0) return -1;
         /* the first pass of a level removes most faces: cells sized for the
@@ -3368,6 +3430,7 @@ static void sim_free(sim *s)
     free(s->cost_faces);
     free(s->face_list);
     free(s->vertex_stamp);
+    free(s->near_stamp);
     free(s->quadrics);
     facegrid_free(&s->grid);
     gridlog_free(&s->grid_log);
@@ -3507,7 +3570,6 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
     s->movable = malloc(((size_t)nv + 1) * sizeof *s->movable);
     s->change_stamp = calloc((size_t)nv + 1, sizeof *s->change_stamp);
     s->reject_stamp = malloc(((size_t)nv + 1) * sizeof *s->reject_stamp);
-    s->vertex_stamp = calloc((size_t)nv + 1, sizeof *s->vertex_stamp);
     s->quadrics = calloc((size_t)nv + 1, sizeof *s->quadrics);
     s->held = calloc((size_t)nv + 1, 1);
     s->special = malloc((size_t)nv + 1);
@@ -3516,7 +3578,7 @@ static int sim_init(sim *s, weld_result *w, const int64_t *primitive_material, c
             s->special[v] = w->vertex_kind[v] == WELD_BORDER || w->vertex_kind[v] == WELD_LOCKED;
     if (!s->special || !s->held || !s->face_material || !s->corner_vertex || !s->corner_wedge || !s->corner_next ||
         !s->face_alive || !s->face_bound || !s->vertex_first || !s->vertex_alive || !s->movable || !s->change_stamp ||
-        !s->reject_stamp || !s->vertex_stamp || !s->quadrics)
+        !s->reject_stamp || !s->quadrics)
         return -1;
     if (workpool_init(&s->pool, s->thread_count)) return -1;
     for (uint32_t t = 0; t < s->thread_count; ++t)

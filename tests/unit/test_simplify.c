@@ -2047,6 +2047,69 @@ static void test_verify_mode(void)
     mesh_free(&m);
 }
 
+/* The batches' reservations next to hubs. A UV sphere's poles (48 faces
+ * each) are hubs with the limit at 32, so the first ring is held and the
+ * second ring's candidates have held neighbours: a reservation must see
+ * another's W through a held vertex's star (the hub's star is not walked).
+ * With placement on every level, a W (the 2-ball) holds the pole itself.
+ * options.verify re-decides every reservation by walking the candidate's
+ * 2-ball and fails on any difference; the checked run must also give exactly
+ * the unchecked run's levels, with the poles' stars whole and the rest
+ * simplified within its bounds. */
+static void test_hub_reservations(void)
+{
+    const uint32_t segments = 48, rings = 10;
+    mesh m;
+    mesh_init(&m);
+    const uint32_t north = mesh_vertex(&m, 0, 0, 1);
+    for (uint32_t r = 1; r < rings; ++r)
+        for (uint32_t i = 0; i < segments; ++i) {
+            const double th = M_PI * r / rings, ph = 2.0 * M_PI * i / segments;
+            mesh_vertex(&m, sin(th) * cos(ph), sin(th) * sin(ph), cos(th));
+        }
+    const uint32_t south = mesh_vertex(&m, 0, 0, -1);
+#define RING(r, i) (north + 1 + ((r) - 1) * segments + (i) % segments)
+    for (uint32_t i = 0; i < segments; ++i) mesh_tri(&m, north, RING(1, i), RING(1, i + 1));
+    for (uint32_t r = 1; r + 1 < rings; ++r)
+        for (uint32_t i = 0; i < segments; ++i) {
+            mesh_tri(&m, RING(r, i), RING(r + 1, i), RING(r, i + 1));
+            mesh_tri(&m, RING(r, i + 1), RING(r + 1, i), RING(r + 1, i + 1));
+        }
+    for (uint32_t i = 0; i < segments; ++i) mesh_tri(&m, south, RING(rings - 1, i + 1), RING(rings - 1, i));
+#undef RING
+    g_hub_faces = 32;
+    g_full_edge_levels = 0xf;
+    run checked, plain;
+    int ok = run_simplify(&checked, &m, default_ladder, 4, 0, 1) == LP_OK;
+    ok &= run_simplify(&plain, &m, default_ladder, 4, 0, 0) == LP_OK;
+    g_hub_faces = 0;
+    g_full_edge_levels = 0;
+    if (ok) {
+        char why[200];
+        CHECK(same_result(&checked, &plain, why, sizeof why), "verify changes the result: %s", why);
+        check_structure("uv sphere, hubs", &plain);
+        check_topology("uv sphere, hubs", &plain, 2, 0);
+        check_levels("uv sphere, hubs", &plain, 8);
+        CHECK(plain.r.held_vertices == 2 + 2 * segments, "the poles and their rings are held: %u",
+              plain.r.held_vertices);
+        for (uint32_t k = 0; k < plain.r.level_count; ++k) {
+            uint32_t at_poles = 0;
+            const simplify_level *L = &plain.r.levels[k];
+            for (uint32_t f = 0; f < L->triangle_count; ++f)
+                for (int c = 0; c < 3; ++c) {
+                    const uint32_t v = level_vertex(&plain, k, f, c);
+                    at_poles += v == north || v == south;
+                }
+            CHECK(at_poles == 2 * segments, "level %u keeps the poles' %u faces: %u", k + 1, 2 * segments, at_poles);
+            CHECK(L->triangle_count < m.nt * 3 / 4, "level %u simplifies between the held rings: %u of %u faces",
+                  k + 1, L->triangle_count, m.nt);
+        }
+    }
+    run_free(&checked);
+    run_free(&plain);
+    mesh_free(&m);
+}
+
 /* ---- vertex removal with another triangulation of the hole ---------------------- */
 
 /* Where no collapse is certified, a vertex is removed with another
@@ -2228,6 +2291,7 @@ static void run_cases(void)
     RUN(test_translated_1e5);
     RUN(test_thread_count_invariance);
     RUN(test_verify_mode);
+    RUN(test_hub_reservations);
     RUN(test_optimal_placement);
     RUN(test_removal);
 }
