@@ -300,8 +300,8 @@ typedef struct sim {
     uint32_t *cost_clock, *cost_faces;
     /* batch reservations (reserve_footprint): the batch_stamp of the batch
      * whose W holds the vertex, and of the batch whose W holds it or one of
-     * its neighbours that is not a hub. Allocated by the first pass, after
-     * the region rounds' memory peak. */
+     * its neighbours that is not a hub. Allocated by the first pass (the
+     * region rounds reserve nothing). */
     uint32_t *vertex_stamp, *near_stamp;
     uint32_t batch_stamp;
     quadric *quadrics;
@@ -2143,11 +2143,11 @@ static int footprint_free(const sim *s, uint32_t u)
  * wait (a UV sphere's pole of 4,000 faces: every candidate of a pass walked
  * it). So the test is turned around: a reservation marks, beside W
  * (vertex_stamp), the vertices next to W (near_stamp: W and the neighbours
- * of its vertices that are not hubs), and u's R meets W exactly when some x
- * of u's 1-ball is near, or (x being a hub's neighbour, whose hub's star
- * near_stamp does not reach) x has a neighbour in W. The decisions, and so
- * the levels, are those of walking R; a candidate that waits reads only its
- * own 1-ball. */
+ * of its vertices that are not hubs, whose stars may be huge), and u's R
+ * meets W exactly when some x of u's 1-ball is near, or x is a hub's
+ * neighbour with a neighbour in W (a hub in W marks no neighbour near). The
+ * decisions, and so the levels, are those of walking R; a candidate that
+ * waits reads only its own 1-ball (and the stars of hubs' neighbours in it). */
 static int reserve_footprint(sim *s, uint32_t u)
 {
     const uint32_t stamp = s->batch_stamp;
