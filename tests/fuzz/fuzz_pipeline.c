@@ -10,7 +10,9 @@
  *   recorded error;
  * - the level's sampled two-sided distance to the original (a lower bound of
  *   the true distance, the measure `lodpipe check` uses, coarser) exceeds the
- *   certified bound. */
+ *   certified bound;
+ * - the simplifier's invariant checker (on when bit 3 of the input's last
+ *   byte is set) finds a broken invariant. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -115,6 +117,10 @@ static int run_mesh(scene *s, uint32_t m, const simplify_options *opt, const lod
     memset(&r, 0, sizeof r);
     int rc = simplify_mesh(&w, materials, opt, &r, &err);
     free(materials);
+    if (rc == LP_PROMISE) {
+        fprintf(stderr, "fuzz_pipeline: mesh %u: %s\n", m, err.msg);
+        abort();
+    }
     const int reread = scene_reload_mesh_data(s, m, &err) == LP_OK;
     if (reread) mesh_data_digest(s, m, reloaded);
     if (!reread || memcmp(loaded, reloaded, SHA256_BYTES) != 0) {
@@ -153,11 +159,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
      * levels begin with region rounds (bit 1: regions of 16 vertices, so
      * that these small meshes have several); bit 2: hubs from 7 faces around
      * a vertex (simplify.h: hub_faces), held with their neighbours, and no
-     * collapse that would make one, at a size these small inputs reach */
+     * collapse that would make one, at a size these small inputs reach;
+     * bit 3: options.verify, the invariant checker (registrations both
+     * ways, every changed face and original re-certified, every batch
+     * reservation re-decided by walking the 2-ball), whose "broken" aborts */
     const uint32_t full_edge = size && (data[size - 1] & 1u) ? (uint32_t)((1ull << levels) - 1u) : 0;
     const uint32_t regions = size && (data[size - 1] & 2u) ? 16 : 0;
     const uint32_t hub_faces = size && (data[size - 1] & 4u) ? 6 : 0;
-    const simplify_options opt = {fractions, levels, 1, config.lod.flip_cos, 0, config.lod.strict_intersections,
+    const int verify = size && (data[size - 1] & 8u);
+    const simplify_options opt = {fractions, levels, 1, config.lod.flip_cos, verify, config.lod.strict_intersections,
                                   full_edge, regions, hub_faces};
     const lodchain_options chain = {{config.switching.pixel_error, config.switching.viewport_height,
                                      config.switching.fov_y},
