@@ -73,8 +73,9 @@ typedef struct simplify_options {
     uint32_t level_count;
     uint32_t threads;         /* 0: one per online core */
     double flip_cos;          /* reject when a changed face's normal turns to cos <= this (0.25) */
-    int verify;               /* re-check the invariants after every commit, and the certificate's
-                                 early rejections against its full test (slow) */
+    int verify;               /* re-check the invariants after every commit, the certificate's
+                                 early rejections against its full test, and every batch
+                                 reservation against a walk of the candidate's 2-ball (slow) */
     int strict_intersections; /* self-intersection test everywhere, not only where the original is thin */
     uint32_t full_edge_levels;/* bit k: level k may use full-edge placement (0: half-edge only) */
     uint32_t region_vertices; /* vertices per region of the region rounds (0: the default; for tests) */
