@@ -2062,20 +2062,21 @@ static void rank_cheapest(ranked *a, size_t n, size_t share)
     sort_ranked(a, share);
 }
 
-/* Lists v and every vertex within two edges of it in ring, each once (sc's
- * vertex_seen): v, its neighbours up to *one_ring_end, then theirs (depths
- * 2; with depths 1, v and its neighbours only). With
- * stop, it stops at the first vertex y it reaches with stop[y] ==
- * stop_value and returns 0; else 1; -1 when memory runs out. */
+/* Lists v and every vertex within `depths` edges of it (1 to 3) in ring,
+ * each once (sc's vertex_seen), nearest first: ball_end[d] is the end of
+ * those within d + 1 edges (ball_end[0]: v and its neighbours). A hub's star
+ * is not walked (its neighbours are reached from elsewhere or not at all).
+ * With stop, it stops at the first vertex y it reaches with stop[y] ==
+ * stop_value and returns 0 (ball_end then unset); else 1; -1 when memory
+ * runs out. */
 static int two_ball(const sim *s, scratch *sc, u32vec *ring, uint32_t v, const uint32_t *stop, uint32_t stop_value,
-                    int depths, size_t *one_ring_end)
+                    int depths, size_t *ball_end)
 {
     ring->size = 0;
     if (next_stamp(sc) || u32_push(ring, v)) return -1;
     sc->vertex_seen[v] = sc->stamp;
     if (stop && stop[v] == stop_value) return 0;
     size_t begin = 0;
-    *one_ring_end = 1;
     for (int depth = 0; depth < depths; ++depth) {
         const size_t end = ring->size;
         for (size_t i = begin; i < end; ++i) {
@@ -2095,7 +2096,7 @@ static int two_ball(const sim *s, scratch *sc, u32vec *ring, uint32_t v, const u
             }
         }
         begin = end;
-        if (depth == 0) *one_ring_end = ring->size;
+        ball_end[depth] = ring->size;
     }
     return 1;
 }
@@ -2152,10 +2153,10 @@ static int reserve_footprint(sim *s, uint32_t u)
 {
     const uint32_t stamp = s->batch_stamp;
     scratch *sc = &s->serial;
-    size_t one_ring_end;
+    size_t ball_end[3];
     const int free_now = footprint_free(s, u);
     if (s->verify) { /* the invariant checker's mode: the decision is that of walking R */
-        const int walked = two_ball(s, sc, &sc->ring, u, s->vertex_stamp, stamp, 2, &one_ring_end);
+        const int walked = two_ball(s, sc, &sc->ring, u, s->vertex_stamp, stamp, 2, ball_end);
         if (walked < 0) return sc->oom = 1, 0;
         if (walked != free_now) {
             s->verify_failed = 1;
@@ -2166,17 +2167,12 @@ static int reserve_footprint(sim *s, uint32_t u)
         }
     }
     if (!free_now) return 0;
-    if (two_ball(s, sc, &sc->ring, u, NULL, 0, s->full_edge ? 2 : 1, &one_ring_end) < 0) return sc->oom = 1, 0;
-    for (size_t i = 0; i < sc->ring.size; ++i) {
-        const uint32_t y = sc->ring.data[i];
-        s->vertex_stamp[y] = stamp;
-        s->near_stamp[y] = stamp;
-        if (s->held[y] == HELD_HUB) continue;
-        for (uint32_t c = s->vertex_first[y]; c != NONE; c = s->corner_next[c]) {
-            if (!s->face_alive[c / 3] || s->corner_vertex[c] != y) continue;
-            for (int k = 0; k < 3; ++k) s->near_stamp[s->corner_vertex[3 * (c / 3) + k]] = stamp;
-        }
-    }
+    /* W is the ball of w edges, near the ball of w + 1 (two_ball does not
+     * walk a hub's star) */
+    const int w = s->full_edge ? 2 : 1;
+    if (two_ball(s, sc, &sc->ring, u, NULL, 0, w + 1, ball_end) < 0) return sc->oom = 1, 0;
+    for (size_t i = 0; i < ball_end[w - 1]; ++i) s->vertex_stamp[sc->ring.data[i]] = stamp;
+    for (size_t i = 0; i < sc->ring.size; ++i) s->near_stamp[sc->ring.data[i]] = stamp;
     return 1;
 }
 
@@ -2771,8 +2767,9 @@ static int region_queue_after(sim *s, region_thread *t, uint32_t x, uint32_t v, 
  * the region waits after a rejection, only the 1-ring can change. */
 static int region_requeue(sim *s, scratch *sc, region_thread *t, uint32_t v, uint32_t dead)
 {
-    size_t one_ring_end;
-    if (two_ball(s, sc, &t->ring, v, NULL, 0, t->waiting ? 2 : 1, &one_ring_end) < 0) return -1;
+    size_t ball_end[2];
+    if (two_ball(s, sc, &t->ring, v, NULL, 0, t->waiting ? 2 : 1, ball_end) < 0) return -1;
+    const size_t one_ring_end = ball_end[0];
     for (size_t i = 0; i < t->ring.size; ++i) {
         const uint32_t x = t->ring.data[i];
         /* outside the region's interior nothing is read: region_queue skips it */
