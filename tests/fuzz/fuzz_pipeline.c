@@ -163,10 +163,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
      * bit 3: options.verify, the invariant checker (registrations both
      * ways, every changed face and original re-certified, every batch
      * reservation re-decided by walking the 2-ball), whose "broken" aborts */
-    const uint32_t full_edge = size && (data[size - 1] & 1u) ? (uint32_t)((1ull << levels) - 1u) : 0;
-    const uint32_t regions = size && (data[size - 1] & 2u) ? 16 : 0;
-    const uint32_t hub_faces = size && (data[size - 1] & 4u) ? 6 : 0;
-    const int verify = size && (data[size - 1] & 8u);
+    const uint8_t last = size ? data[size - 1] : 0;
+    const uint32_t full_edge = last & 1u ? (uint32_t)((1ull << levels) - 1u) : 0;
+    const uint32_t regions = last & 2u ? 16 : 0;
+    const uint32_t hub_faces = last & 4u ? 6 : 0;
+    const int verify = (last & 8u) != 0;
     const simplify_options opt = {fractions, levels, 1, config.lod.flip_cos, verify, config.lod.strict_intersections,
                                   full_edge, regions, hub_faces};
     const lodchain_options chain = {{config.switching.pixel_error, config.switching.viewport_height,
