@@ -182,6 +182,11 @@ typedef struct scratch {
     size_t after_cap;
     double *before_box; /* 6 per changed face: its box before (lo, hi), also from flip_ok */
     size_t before_box_cap;
+    /* the faces the change being tested replaces, as they are before it
+     * (corners and boxes): a face they already cross may go on crossing the
+     * new ones (star_crosses) */
+    cert_tri *replaced;
+    size_t replaced_count, replaced_cap;
     uint32_t *vertex_seen; /* stamps, sized nv */
     keymap faces;          /* candidate faces seen -> index in cand_faces (NONE: over the cap) */
     keymap origs;          /* originals already in recheck */
@@ -759,6 +764,8 @@ typedef struct crossing_query {
     const collapse *cl; /* NULL: a change made in place, whose faces are skip */
     const uint32_t *skip;
     size_t skip_count;
+    const cert_tri *replaced; /* sc->replaced */
+    size_t replaced_count;
     double lo[3], hi[3]; /* the box of the new faces */
     int finite;          /* every new face is (stars_finite) */
 } crossing_query;
@@ -787,8 +794,26 @@ static int crossing_candidate(const crossing_query *q, uint32_t g)
     return 1;
 }
 
+/* 1 when the triangle other, whose box is [lo, hi], meets one of the faces
+ * q's change replaces (more than in the corners they share, or too near to
+ * tell). */
+static int crossed_before(const crossing_query *q, const double other[3][3], const double lo[3], const double hi[3])
+{
+    for (size_t i = 0; i < q->replaced_count; ++i) {
+        const cert_tri *r = &q->replaced[i];
+        int apart = 0;
+        for (int a = 0; a < 3; ++a) apart |= (lo[a] > r->hi[a]) | (hi[a] < r->lo[a]);
+        if (!apart && intersect_triangles((const double(*)[3])r->p, other)) return 1;
+    }
+    return 0;
+}
+
 /* 1 when a new face of q whose box meets [lo, hi], the box of the triangle
- * other (finite: intersect_finite of it), would cross it. */
+ * other (finite: intersect_finite of it), would cross it, and none of the
+ * faces the change replaces met it: a crossing the level already has (the
+ * input's own, where parts of a mesh pass through each other) moves with
+ * the faces that carry it instead of freezing every face around it, while a
+ * face that crossed nothing is never made to cross. */
 static int crosses_triangle(const crossing_query *q, const double other[3][3], int finite, const double lo[3],
                             const double hi[3])
 {
@@ -799,7 +824,8 @@ static int crosses_triangle(const crossing_query *q, const double other[3][3], i
         for (int a = 0; a < 3; ++a) apart |= (lo[a] > f->hi[a]) | (hi[a] < f->lo[a]);
         if (apart) continue;
         const double(*p)[3] = (const double(*)[3])f->p;
-        if (near ? intersect_triangles_near(p, other) : intersect_triangles(p, other)) return 1;
+        if (near ? intersect_triangles_near(p, other) : intersect_triangles(p, other))
+            return !crossed_before(q, other, lo, hi);
     }
     return 0;
 }
@@ -898,6 +924,21 @@ static int crosses_stars(const star_list *l, const crossing_query *q, const doub
     return 0;
 }
 
+/* sc->replaced: the faces around u and, when v moves, around v (sc->faces_u
+ * and sc->faces_v), as they are now. Returns -1 when memory runs out. */
+static int gather_replaced(const sim *s, scratch *sc, const collapse *cl)
+{
+    const size_t n = sc->faces_u.size + (cl->moved ? sc->faces_v.size : 0);
+    if (grow((void **)&sc->replaced, &sc->replaced_cap, n + 1, sizeof *sc->replaced)) return -1;
+    sc->replaced_count = 0;
+    for (size_t i = 0; i < sc->faces_u.size; ++i)
+        face_box_after(s, sc->faces_u.data[i], NULL, &sc->replaced[sc->replaced_count++]);
+    for (size_t i = 0; cl->moved && i < sc->faces_v.size; ++i)
+        if (!face_has(s, sc->faces_v.data[i], cl->u)) /* the edge's faces are u's too */
+            face_box_after(s, sc->faces_v.data[i], NULL, &sc->replaced[sc->replaced_count++]);
+    return 0;
+}
+
 /* The commit's re-test: 1 when a face of the new star would cross a face
  * that an earlier commit of this batch changed (those were not there when the
  * candidate was tested). Only the stars committed in this batch are visited,
@@ -906,10 +947,10 @@ static int crosses_batch(const sim *s, scratch *sc, const collapse *cl)
 {
     double lo[3], hi[3];
     long n = new_star(s, sc, cl, lo, hi);
-    if (n < 0) return sc->oom = 1, 1;
+    if (n < 0 || gather_replaced(s, sc, cl)) return sc->oom = 1, 1;
     if (n == 0) return 0;
-    crossing_query q = {s, sc, sc->tris, (size_t)n, cl, NULL, 0, {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]},
-                        stars_finite(sc->tris, (size_t)n)};
+    crossing_query q = {s, sc, sc->tris, (size_t)n, cl, NULL, 0, sc->replaced, sc->replaced_count,
+                        {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}, stars_finite(sc->tris, (size_t)n)};
     return crosses_stars(&s->batch_stars, &q, lo, hi);
 }
 
@@ -920,7 +961,7 @@ static int own_grid_init(const sim *s, const region *rg, own_grid *g);
  * star's box: its faces overlap, and one query per face would meet the same
  * neighbours several times. For a change made in place (cl NULL), the grid
  * still holds the changed faces (sc->changed) where they were: they are
- * skipped. */
+ * skipped, and the caller made sc->replaced before the change. */
 static int star_crosses(const sim *s, scratch *sc, const collapse *cl)
 {
     const size_t n = sc->changed.size;
@@ -936,8 +977,9 @@ static int star_crosses(const sim *s, scratch *sc, const collapse *cl)
             if (finite ? !apart && intersect_triangles_near(fp, gp) : intersect_triangles(fp, gp)) return 1;
         }
     if (!n) return 0;
-    crossing_query q = {s, sc, sc->after, n, cl, cl ? NULL : sc->changed.data, cl ? 0 : n,
-                        {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}, finite};
+    if (cl && gather_replaced(s, sc, cl)) return sc->oom = 1, 1;
+    crossing_query q = {s, sc, sc->after, n, cl, cl ? NULL : sc->changed.data, cl ? 0 : n, sc->replaced,
+                        sc->replaced_count, {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}, finite};
     if (!sc->region) return facegrid_query(&s->grid, lo, hi, crosses, &q);
     /* in a region: its own faces and the shared ones (another region's
      * faces cannot cross these, region_partition) */
@@ -3232,13 +3274,15 @@ static int removal_try(sim *s, const removal *rm, const holefill *t)
     for (uint32_t i = 0; i < n; ++i)
         if (u32_push(i < kept ? &sc->changed : &sc->faces_v, rm->face[i])) return sc->oom = 1, -1;
     if (grow((void **)&sc->after, &sc->after_cap, kept, sizeof *sc->after) ||
-        grow((void **)&sc->before_box, &sc->before_box_cap, 6 * (size_t)n, sizeof *sc->before_box))
+        grow((void **)&sc->before_box, &sc->before_box_cap, 6 * (size_t)n, sizeof *sc->before_box) ||
+        grow((void **)&sc->replaced, &sc->replaced_cap, n, sizeof *sc->replaced))
         return sc->oom = 1, -1;
+    sc->replaced_count = n; /* every face of the hole, for star_crosses */
     for (uint32_t i = 0; i < n; ++i) {
-        cert_tri b;
-        face_box_after(s, rm->face[i], NULL, &b);
-        memcpy(sc->before_box + 6 * i, b.lo, sizeof b.lo);
-        memcpy(sc->before_box + 6 * i + 3, b.hi, sizeof b.hi);
+        cert_tri *b = &sc->replaced[i];
+        face_box_after(s, rm->face[i], NULL, b);
+        memcpy(sc->before_box + 6 * i, b->lo, sizeof b->lo);
+        memcpy(sc->before_box + 6 * i + 3, b->hi, sizeof b->hi);
         for (int k = 0; k < 3; ++k) {
             saved_vertex[3 * i + k] = s->corner_vertex[3 * rm->face[i] + k];
             saved_wedge[3 * i + k] = s->corner_wedge[3 * rm->face[i] + k];
@@ -3448,6 +3492,7 @@ static void sim_free(sim *s)
         free(sc->nb);
         free(sc->tris);
         free(sc->after);
+        free(sc->replaced);
         free(sc->before_box);
         free(sc->vertex_seen);
         keymap_free(&sc->faces);
