@@ -494,10 +494,12 @@ def machine(tools, have_lodpipe):
         for line in f:
             if line.startswith("MemTotal"):
                 mem = "%.1f GiB" % (int(line.split()[1]) / 1024 / 1024)
-    def sh(cmd):
+    def sh(cmd, strip=True):
         p = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
-        return p.stdout.strip()
-    dirty = sh(["git", "status", "--porcelain", "--", "src", "third_party", "Makefile"])
+        return p.stdout.strip() if strip else p.stdout
+    # porcelain lines are "XY path": stripping the output would eat the first line's
+    # leading space (an unstaged change, " M") and with it a letter of its path
+    dirty = sh(["git", "status", "--porcelain", "--", "src", "third_party", "Makefile"], strip=False)
     mo = sh(["dpkg-query", "-W", "-f=${Version}", "libmeshoptimizer-dev"])
     lp_mtime = (datetime.datetime.fromtimestamp(os.path.getmtime(tools.lodpipe)).strftime("%Y-%m-%d %H:%M:%S")
                 if os.path.exists(tools.lodpipe) else None)

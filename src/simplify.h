@@ -18,9 +18,11 @@
  * How. Half-edge collapses u -> v (v keeps its position and attributes, so
  * nothing is interpolated and all levels can share one vertex buffer), legal
  * by the vertex kinds of weld.h, the link condition, a degree floor, the
- * flip guard and a self-intersection test (no new face may cross another face
- * of the level: tested where the original is thin, thin.h, or everywhere in
- * strict mode, DESIGN.md §5); ordered by a position quadric, ranked again
+ * flip guard and a self-intersection test (no new face may cross a face of
+ * the level that the faces it replaces did not already meet, so crossings the
+ * input has move with their faces and no others appear: tested where the
+ * original is thin, thin.h, or everywhere in strict mode, DESIGN.md §5);
+ * ordered by a position quadric, ranked again
  * after each pass has evaluated the cheapest quarter; evaluated in batches whose
  * neighbourhoods are disjoint, certified in parallel and committed in a fixed
  * order, so the result does not depend on the thread count. A rejected
@@ -88,7 +90,7 @@ enum {
     SIMPLIFY_REJECT_KIND,     /* vertex kind or edge type forbids it */
     SIMPLIFY_REJECT_LINK,     /* link condition or degree floor */
     SIMPLIFY_REJECT_FLIP,     /* a face would turn too far or become degenerate */
-    SIMPLIFY_REJECT_INTERSECT,/* a new face would intersect another face of the level */
+    SIMPLIFY_REJECT_INTERSECT,/* a new face would cross a face of the level that the replaced faces did not meet */
     SIMPLIFY_REJECT_COVER,    /* (b): an original would not stay within eps */
     SIMPLIFY_REJECT_FACE,     /* (a): a new face would leave eps of the original */
     SIMPLIFY_REJECT_CONFLICT, /* an earlier commit of the batch changed its data: retried */
