@@ -2111,7 +2111,7 @@ static void test_hub_reservations(void)
 }
 
 /* Two closed boxes that pass through each other (parts of one mesh that
- * overlap, as in most game and CAD assets): a slab A, 10 x 10 x 2, and a slab
+ * overlap, as in many game and CAD assets): a slab A, 10 x 10 x 2, and a slab
  * B, 2 thick, standing upright through it. The guard refuses a new face
  * that crosses a face the faces it replaces did not already meet (README
  * "The guarantee"), so the crossing curves move with the faces that carry
