@@ -2118,7 +2118,7 @@ static void test_hub_reservations(void)
  * them, and the flat sides simplify through them: every level keeps at most
  * 1/16 of the 2,304 input triangles (24 at the first level, the two boxes'
  * 12 each), where a guard refusing every crossing kept each face along them
- * (598 to 564). Every level keeps both boxes' topology, stays within
+ * (564 to 598). Every level keeps both boxes' topology, stays within
  * its bound, and is the same with the invariant checker on; neither box ever
  * crosses itself: only A's faces cross B's. */
 static void test_crossing_parts(void)
