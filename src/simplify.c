@@ -947,8 +947,9 @@ static int crosses_batch(const sim *s, scratch *sc, const collapse *cl)
 {
     double lo[3], hi[3];
     long n = new_star(s, sc, cl, lo, hi);
-    if (n < 0 || gather_replaced(s, sc, cl)) return sc->oom = 1, 1;
+    if (n < 0) return sc->oom = 1, 1;
     if (n == 0) return 0;
+    if (gather_replaced(s, sc, cl)) return sc->oom = 1, 1;
     crossing_query q = {s, sc, sc->tris, (size_t)n, cl, NULL, 0, sc->replaced, sc->replaced_count,
                         {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}, stars_finite(sc->tris, (size_t)n)};
     return crosses_stars(&s->batch_stars, &q, lo, hi);

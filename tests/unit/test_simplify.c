@@ -2138,10 +2138,9 @@ static void test_crossing_parts(void)
         p[1] = 10.3f - y;
         p[2] = x - 4.05f;
     }
-    static const double ladder[4] = {0.01, 0.03, 0.07, 0.15};
     run rn, checked;
-    int ok = run_simplify(&rn, &m, ladder, 4, 2, 0) == LP_OK;
-    ok &= run_simplify(&checked, &m, ladder, 4, 1, 1) == LP_OK;
+    int ok = run_simplify(&rn, &m, default_ladder, 4, 2, 0) == LP_OK;
+    ok &= run_simplify(&checked, &m, default_ladder, 4, 1, 1) == LP_OK;
     if (ok) {
         char why[200];
         CHECK(same_result(&checked, &rn, why, sizeof why), "verify changes the result: %s", why);
