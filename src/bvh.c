@@ -668,3 +668,34 @@ int bvh_any_within_filtered(const bvh *tree, const double p[3], double r,
     if (witness) *witness = found.triangle;
     return 1;
 }
+
+void bvh_visit_near(const bvh *tree, const double p[3], double r, bvh_triangle_visit visit, void *context)
+{
+    const double r2 = radius_squared(r);
+    if (tree->triangle_count == 0 || !query_point_valid(p) || !(r2 >= 0.0)) return;
+    uint32_t stack[BVH_MAX_DEPTH];
+    unsigned top = 0;
+    uint32_t current = 0;
+    if (!node_may_reach(box_distance2(&tree->nodes[0], p), r2)) return;
+    for (;;) {
+        const bvh_node *node = &tree->nodes[current];
+        if (node->count > 0) {
+            for (uint32_t i = 0; i < node->count; i++) {
+                const uint32_t triangle = tree->triangle_order[node->offset + i];
+                if (node_may_reach(triangle_box_distance2(tree, triangle, p), r2)) visit(context, triangle);
+            }
+        } else {
+            const uint32_t near = current + 1, far = node->offset;
+            if (node_may_reach(box_distance2(&tree->nodes[far], p), r2)) {
+                assert(top < BVH_MAX_DEPTH);
+                stack[top++] = far;
+            }
+            if (node_may_reach(box_distance2(&tree->nodes[near], p), r2)) {
+                current = near;
+                continue;
+            }
+        }
+        if (top == 0) return;
+        current = stack[--top];
+    }
+}

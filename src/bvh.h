@@ -164,4 +164,14 @@ int bvh_any_within_filtered(const bvh *tree, const double p[3], double r,
                             bvh_triangle_filter filter, void *context,
                             uint32_t *witness);
 
+/* Called by bvh_visit_near for each triangle it meets. */
+typedef void (*bvh_triangle_visit)(void *context, uint32_t triangle);
+
+/* Calls visit(context, t) once for every triangle t whose vertex box lies
+ * within r of p (computed box distance, shrunk as the queries shrink it): a
+ * superset of the triangles with d2(p, t) <= r^2, in a fixed order (the
+ * tree's). For a caller that needs every triangle near a point, not only the
+ * closest. Nothing is visited for negative or NaN r or non-finite p. */
+void bvh_visit_near(const bvh *tree, const double p[3], double r, bvh_triangle_visit visit, void *context);
+
 #endif

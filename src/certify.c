@@ -236,6 +236,7 @@ int cert_original_init(cert_original *o, const float *positions, uint32_t vertex
     o->material = material;
     o->vertex_offsets = vertex_offsets;
     o->vertex_triangles = vertex_triangles;
+    o->ring_scan_max = CERT_RING_SCAN_MAX;
     o->normals = malloc(((size_t)triangle_count * 3 + 1) * sizeof *o->normals); /* compute_normals fills them */
     o->degenerate = malloc((size_t)triangle_count + 1);
     if (!o->normals || !o->degenerate) {
@@ -318,6 +319,17 @@ static double corners_below(const vec3d piece[3], const vec3d tri[3], double cap
         if (d2 > worst2) worst2 = d2;
     }
     return worst2;
+}
+
+/* How far from the centre of a piece's enclosing ball (centre, radius) an
+ * original triangle may lie and still hold all the piece's corners within
+ * accept: each corner is within radius of the centre, so accept + radius,
+ * widened by a millionth and by 1e-12 of the coordinates' size to cover the
+ * rounding of the point-triangle distances. Beyond it, corners_below finds
+ * a corner farther than accept. */
+static double ball_reach(const vec3d *centre, double radius, double accept)
+{
+    return (accept + radius) * (1.0 + 1e-6) + 1e-12 * (geom_max_abs_component(*centre) + radius);
 }
 
 /* The largest corner distance of the piece to tri, or INFINITY as soon as
@@ -473,6 +485,74 @@ static int overlay_now(const cert_original *o, face_filter *filter, const vec3d 
     return 1;
 }
 
+/* The search for one original triangle holding a whole piece (corners p)
+ * within accept, among the triangles around the corners hv of the piece's
+ * closest original. */
+typedef struct best_search {
+    const cert_original *o;
+    face_filter *filter;
+    const vec3d *p;
+    double accept;
+    const uint32_t *hv;
+    double best, best2;
+} best_search;
+
+/* Measures triangle t for the search: the largest corner distance of the
+ * piece to it, kept when it is the smallest so far. A triangle with a corner
+ * no nearer than the best's farthest cannot lower the best. */
+static void best_measure(best_search *b, uint32_t t)
+{
+    if (!witness_ok(b->filter, t)) return;
+    vec3d tri[3];
+    triangle_of(b->o, t, tri);
+    const double worst2 = corners_below(b->p, tri, geom_fmin(b->accept * b->accept, b->best2));
+    const double m = sqrt(worst2);
+    if (m < b->best) {
+        b->best = m;
+        b->best2 = worst2;
+    }
+}
+
+/* bvh_visit_near's visitor: a triangle near the piece counts when it is
+ * around one of hv's vertices. */
+static void best_visit(void *context, uint32_t t)
+{
+    best_search *b = context;
+    const uint32_t *tv = b->o->triangles + 3 * (size_t)t;
+    for (int k = 0; k < 3; ++k)
+        if (tv[k] == b->hv[0] || tv[k] == b->hv[1] || tv[k] == b->hv[2]) {
+            best_measure(b, t);
+            return;
+        }
+}
+
+/* The smallest largest-corner-distance of the piece to one triangle around
+ * hv's vertices (INFINITY when none is within accept). Short rings are
+ * walked. Around a vertex of high valence (a fan's hub: thousands of
+ * sectors) a walk per piece made certifying a sliver fan quadratic, so the
+ * tree then visits just the triangles within ball_reach of the piece's
+ * centre. The others could only measure INFINITY, and the minimum does not
+ * depend on the order of the measures: the same answer either way. */
+static double best_around(const cert_original *o, face_filter *filter, const vec3d p[3], const vec3d *centre,
+                          double r, const uint32_t hv[3], double accept)
+{
+    best_search b = {o, filter, p, accept, hv, INFINITY, INFINITY};
+    uint32_t ring = 0;
+    for (int k = 0; k < 3; ++k) ring += o->vertex_offsets[hv[k] + 1] - o->vertex_offsets[hv[k]];
+    if (ring > o->ring_scan_max) {
+        const double q[3] = {centre->x, centre->y, centre->z};
+        bvh_visit_near(&o->tree, q, ball_reach(centre, r, accept), best_visit, &b);
+        return b.best;
+    }
+    /* a triangle already measured around an earlier corner is skipped */
+    for (int k = 0; k < 3; ++k)
+        for (uint32_t i = o->vertex_offsets[hv[k]]; i < o->vertex_offsets[hv[k] + 1]; ++i) {
+            const uint32_t t = o->vertex_triangles[i];
+            if (!around_earlier(o, t, hv, k)) best_measure(&b, t);
+        }
+    return b.best;
+}
+
 static int piece_a(const cert_original *o, face_filter *filter, const cert_tri *f, const vec3d p[3], int depth,
                    double eps, double accept, double *bound)
 {
@@ -500,24 +580,8 @@ static int piece_a(const cert_original *o, face_filter *filter, const cert_tri *
         return 1;
     }
     /* Convexity: the closest triangle or one around its corners may hold the
-     * whole piece within eps. A triangle already measured around an earlier
-     * corner, or with a corner no nearer than the best's farthest, cannot
-     * lower the best. */
-    double best = INFINITY, best2 = INFINITY;
-    const uint32_t *hv = o->triangles + 3 * (size_t)hit.triangle;
-    for (int k = 0; k < 3; ++k)
-        for (uint32_t i = o->vertex_offsets[hv[k]]; i < o->vertex_offsets[hv[k] + 1]; ++i) {
-            uint32_t t = o->vertex_triangles[i];
-            if (around_earlier(o, t, hv, k) || !witness_ok(filter, t)) continue;
-            vec3d tri[3];
-            triangle_of(o, t, tri);
-            const double worst2 = corners_below(p, tri, geom_fmin(accept * accept, best2));
-            const double m = sqrt(worst2);
-            if (m < best) {
-                best = m;
-                best2 = worst2;
-            }
-        }
+     * whole piece within eps. */
+    const double best = best_around(o, filter, p, &c, r, o->triangles + 3 * (size_t)hit.triangle, accept);
     if (best <= accept) {
         if (best > *bound) *bound = best;
         return 1;

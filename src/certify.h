@@ -76,7 +76,14 @@ typedef struct cert_original {
     /* owned: the distinct vertices of cluster c's triangles are
      * cluster_vertices[cluster_vertex_start[c] .. cluster_vertex_start[c + 1] - 1] */
     uint32_t *cluster_vertex_start, *cluster_vertices;
+    /* A piece's search for one original holding it walks the triangles
+     * around its closest original's corners when they number at most this
+     * (CERT_RING_SCAN_MAX), else asks the tree for the ones near the piece:
+     * the same answer either way (tests set 0 and UINT32_MAX to compare). */
+    uint32_t ring_scan_max;
 } cert_original;
+
+#define CERT_RING_SCAN_MAX 48
 
 /* Builds normals, the BVH (with bvh_build_threads: the same tree for any
  * thread count) and the clusters, on up to `threads` threads (the normals

@@ -485,6 +485,105 @@ static void test_filtered_queries_match_brute_force(void)
     mesh_free(&m);
 }
 
+/* bvh_visit_near against brute force: every triangle within r is visited,
+ * each once, none whose vertex box is beyond r, in the same order on a
+ * second call; nothing for a negative or NaN radius or a non-finite point. */
+typedef struct {
+    uint32_t *seen;   /* per triangle: times visited */
+    uint32_t *order;  /* the visits, in order */
+    uint32_t count, cap;
+} visit_log;
+
+static void log_visit(void *context, uint32_t triangle)
+{
+    visit_log *v = context;
+    v->seen[triangle]++;
+    if (v->count < v->cap) v->order[v->count] = triangle;
+    v->count++;
+}
+
+static double brute_box_distance2(const mesh *m, uint32_t t, const double p[3])
+{
+    double d2 = 0.0;
+    for (int axis = 0; axis < 3; axis++) {
+        double lo = INFINITY, hi = -INFINITY;
+        for (int k = 0; k < 3; k++) {
+            const double x = m->positions[3 * (size_t)m->indices[3 * (size_t)t + (uint32_t)k] + (uint32_t)axis];
+            lo = fmin(lo, x);
+            hi = fmax(hi, x);
+        }
+        const double gap = p[axis] < lo ? lo - p[axis] : p[axis] > hi ? p[axis] - hi : 0.0;
+        d2 += gap * gap;
+    }
+    return d2;
+}
+
+static void visit_near_case(const mesh *m, const char *what, int queries)
+{
+    bvh tree;
+    CHECK(bvh_build(&tree, m->positions, m->vertex_count, m->indices, m->triangle_count) == BVH_OK, "build %s", what);
+    const uint32_t n = (uint32_t)m->triangle_count;
+    visit_log a = {calloc(n, sizeof(uint32_t)), calloc(n, sizeof(uint32_t)), 0, n};
+    visit_log b = {calloc(n, sizeof(uint32_t)), calloc(n, sizeof(uint32_t)), 0, n};
+    int missed = 0, twice = 0, beyond = 0, reordered = 0;
+    long visited = 0, within = 0;
+    for (int i = 0; i < queries; i++) {
+        double p[3];
+        random_query(m, 1.0, p);
+        bvh_hit hit = no_hit();
+        brute_closest(m, p, NULL, NULL, &hit);
+        const double r = i % 7 == 0 ? 0.0 : sqrt(hit.distance2) * rng_uniform(0.5, 3.0) + rng_uniform(0.0, 0.05);
+        memset(a.seen, 0, n * sizeof(uint32_t));
+        memset(b.seen, 0, n * sizeof(uint32_t));
+        a.count = b.count = 0;
+        bvh_visit_near(&tree, p, r, log_visit, &a);
+        bvh_visit_near(&tree, p, r, log_visit, &b);
+        reordered += a.count != b.count || memcmp(a.order, b.order, a.count * sizeof(uint32_t)) != 0;
+        for (uint32_t t = 0; t < n; t++) {
+            const int in = brute_triangle_distance2(m, t, p, NULL) <= r * r;
+            within += in;
+            visited += a.seen[t] > 0;
+            missed += in && a.seen[t] == 0;
+            twice += a.seen[t] > 1;
+            beyond += a.seen[t] > 0 && !(brute_box_distance2(m, t, p) <= r * r * (1.0 + 1e-12));
+        }
+    }
+    CHECK(missed == 0, "%s: %d triangles within r not visited", what, missed);
+    CHECK(twice == 0, "%s: %d triangles visited more than once", what, twice);
+    CHECK(beyond == 0, "%s: %d visited triangles have their box beyond r", what, beyond);
+    CHECK(reordered == 0, "%s: %d queries visited in another order the second time", what, reordered);
+    CHECK(within > queries, "%s: not vacuous (%ld triangles within r over %d queries)", what, within, queries);
+    printf("#   visit_near %s: %ld visits, %ld within r\n", what, visited, within);
+
+    double p[3] = {0.1, 0.2, 0.3};
+    a.count = 0;
+    bvh_visit_near(&tree, p, -1.0, log_visit, &a);
+    bvh_visit_near(&tree, p, NAN, log_visit, &a);
+    p[0] = INFINITY;
+    bvh_visit_near(&tree, p, 1.0, log_visit, &a);
+    p[0] = NAN;
+    bvh_visit_near(&tree, p, 1.0, log_visit, &a);
+    CHECK(a.count == 0, "%s: %u visits for a negative or NaN radius or a non-finite point", what, a.count);
+    free(a.seen);
+    free(a.order);
+    free(b.seen);
+    free(b.order);
+    bvh_free(&tree);
+}
+
+static void test_visit_near_matches_brute_force(void)
+{
+    mesh soup = make_soup(3000, 0.0);
+    visit_near_case(&soup, "soup", 600);
+    mesh_free(&soup);
+    mesh sphere = make_sphere(30, 40);
+    visit_near_case(&sphere, "sphere", 600);
+    mesh_free(&sphere);
+    mesh grid = make_grid(40);
+    visit_near_case(&grid, "grid", 300);
+    mesh_free(&grid);
+}
+
 static void test_translated_model_same_results(void)
 {
     /* The same soup on a 1/64 grid, once at the origin and once moved by
@@ -720,6 +819,7 @@ int main(void)
     RUN(test_sphere_matches_brute_force);
     RUN(test_grid_ties_go_to_lowest_index);
     RUN(test_filtered_queries_match_brute_force);
+    RUN(test_visit_near_matches_brute_force);
     RUN(test_translated_model_same_results);
     RUN(test_identical_triangles);
     RUN(test_depth_cap_on_exponential_spread);

@@ -475,6 +475,92 @@ static void test_face_fuzz(void)
     om_free(&m);
 }
 
+/* A polar grid over the height field: a hub with `sectors` thin sectors
+ * around it (its valence), `rings` rings of quads outside them. */
+static int hub_fan_built(orig_mesh *m, uint32_t sectors, uint32_t rings)
+{
+    om_init(m, 1 + sectors * rings, sectors * (2 * rings - 1));
+    const double cx = 0.5, cy = 0.5, radius = 0.45;
+    const uint32_t hub = om_vertex(m, cx, cy, bumpy(cx, cy));
+    for (uint32_t j = 1; j <= rings; ++j)
+        for (uint32_t i = 0; i < sectors; ++i) {
+            const double a = 2.0 * M_PI * i / sectors, rr = radius * j / rings;
+            const double x = cx + rr * cos(a), y = cy + rr * sin(a);
+            om_vertex(m, x, y, bumpy(x, y));
+        }
+    for (uint32_t i = 0; i < sectors; ++i) {
+        const uint32_t next = (i + 1) % sectors;
+        om_tri(m, hub, 1 + i, 1 + next, 0);
+        for (uint32_t j = 1; j < rings; ++j) {
+            const uint32_t a = 1 + (j - 1) * sectors + i, b = 1 + (j - 1) * sectors + next;
+            om_tri(m, a, a + sectors, b + sectors, 0);
+            om_tri(m, a, b + sectors, b, 0);
+        }
+    }
+    return om_ready(m);
+}
+
+/* A piece's search for one original holding it walks the rings of its
+ * closest original's corners, or (around a vertex of high valence) asks the
+ * tree for the originals near the piece. Both must give the same answer to
+ * the bit: every face, certified both ways on a fan of 600 sectors around a
+ * hub (sector faces from the hub, faces near it, some lifted off it), gets
+ * the same verdict and bound, and an accepted one is sampled within it. */
+static void test_hub_fan_tree_search(void)
+{
+    orig_mesh m;
+    if (!hub_fan_built(&m, 600, 3)) return;
+    int accepted = 0, rejected = 0, differ = 0;
+    for (int trial = 0; trial < 240; ++trial) {
+        const double eps = rng_uniform(0.002, 0.03);
+        vec3d p[3];
+        const double a = rng_uniform(0, 2 * M_PI), span = rng_uniform(0.01, 0.4), reach = rng_uniform(0.05, 0.45);
+        if (trial % 2) { /* a sector face from the hub */
+            p[0] = geom_vec3d(0.5, 0.5, bumpy(0.5, 0.5));
+            p[1] = geom_vec3d(0.5 + reach * cos(a), 0.5 + reach * sin(a), 0);
+            p[2] = geom_vec3d(0.5 + reach * cos(a + span), 0.5 + reach * sin(a + span), 0);
+        } else { /* a small face near the hub */
+            const double size = rng_uniform(0.01, 0.1), cx = 0.5 + rng_uniform(-0.05, 0.05),
+                         cy = 0.5 + rng_uniform(-0.05, 0.05);
+            for (int k = 0; k < 3; ++k) {
+                const double b = a + 2.0 * M_PI * k / 3 + rng_uniform(-0.5, 0.5);
+                p[k] = geom_vec3d(cx + size * cos(b), cy + size * sin(b), 0);
+            }
+        }
+        const double lift = trial % 3 == 0 ? eps * rng_uniform(0, 1.5) : 0.0;
+        for (int k = (trial % 2); k < 3; ++k) p[k].z = bumpy(p[k].x, p[k].y) + rng_uniform(-lift, lift);
+        cert_tri f = make_face(p[0], p[1], p[2], 0, 0);
+        if (f.degenerate) continue;
+        hint(&m, &f);
+        double bound_rings = -1, bound_tree = -1, bound_default = -1;
+        m.o.ring_scan_max = UINT32_MAX;
+        const int ok_rings = cert_face(&m.o, &f, eps, &bound_rings);
+        m.o.ring_scan_max = 0;
+        const int ok_tree = cert_face(&m.o, &f, eps, &bound_tree);
+        m.o.ring_scan_max = CERT_RING_SCAN_MAX;
+        const int ok_default = cert_face(&m.o, &f, eps, &bound_default);
+        if (ok_rings != ok_tree || ok_rings != ok_default ||
+            (ok_rings && (bound_rings != bound_tree || bound_rings != bound_default))) {
+            differ++;
+            printf("#   trial %d: rings %d %.17g, tree %d %.17g, default %d %.17g\n", trial, ok_rings, bound_rings,
+                   ok_tree, bound_tree, ok_default, bound_default);
+        }
+        if (!ok_rings) {
+            rejected++;
+            continue;
+        }
+        accepted++;
+        face_points(&f, p);
+        const double sampled = sampled_face_to_original(&m, p, 12, 0, NULL);
+        CHECK(sampled <= bound_rings + slack(1) && bound_rings <= eps, "trial %d: sampled %.17g <= bound %.17g <= eps %.17g",
+              trial, sampled, bound_rings, eps);
+    }
+    printf("#   hub fan: %d accepted, %d rejected, %d differ\n", accepted, rejected, differ);
+    CHECK(differ == 0, "%d faces certified differently by the ring walk and the tree", differ);
+    CHECK(accepted >= 40 && rejected >= 20, "not vacuous: %d accepted, %d rejected", accepted, rejected);
+    om_free(&m);
+}
+
 /* (b): an original triangle against a handful of random faces around it; when
  * covered, the faces it names are enough: sampled distance from t to the union
  * of the USED faces <= bound <= eps. */
@@ -1064,6 +1150,7 @@ int main(void)
     RUN(test_obtuse_translated_rotated);
     RUN(test_obtuse_family);
     RUN(test_face_fuzz);
+    RUN(test_hub_fan_tree_search);
     RUN(test_cover_fuzz);
     RUN(test_thin_plate_face);
     RUN(test_thin_plate_cover);
