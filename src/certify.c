@@ -518,12 +518,7 @@ static void best_measure(best_search *b, uint32_t t)
 static void best_visit(void *context, uint32_t t)
 {
     best_search *b = context;
-    const uint32_t *tv = b->o->triangles + 3 * (size_t)t;
-    for (int k = 0; k < 3; ++k)
-        if (tv[k] == b->hv[0] || tv[k] == b->hv[1] || tv[k] == b->hv[2]) {
-            best_measure(b, t);
-            return;
-        }
+    if (around_earlier(b->o, t, b->hv, 3)) best_measure(b, t);
 }
 
 /* The smallest largest-corner-distance of the piece to one triangle around
