@@ -22,6 +22,8 @@ round, lodpipe's whole 1/3/7/15 % chain (one process, wall clock, user CPU, peak
 then meshopt_peer's chain (by error and at lodpipe's achieved counts); 3 rounds, medians. After
 the rounds, the last round's four lodpipe levels are checked (hausdorff --within) within their
 own certified bounds against the original.
+Fans (same part, after the rounds): a disc, a cone and a cylinder whose centres have 1,000
+triangles around them (bench/make_fans.py), the same chain, lodpipe against meshopt_peer.
 
 usage: python3 bench/run.py [--models bunny,fandisk,...] [--skip-quality] [--skip-speed]
                             [--lodpipe PATH] [--tol 0.01] [--reps 3]
@@ -477,7 +479,52 @@ def speed(tools, args, have_lodpipe):
             res["verify"].append({"level": lv["level"], "pct": lv["pct"], "bound_pct": b, **w})
             log("speed: level %d (%s %%) within its certified bound %s %%: %s" % (
                 lv["level"], fmt_pct(lv["pct"]), b, "undecided" if w.get("undecided") else w["within"]))
+    res["fans"] = fans(tools, args, have_lodpipe)
     return res
+
+
+FAN_KINDS = ["disc", "cone", "cylinder"]
+FAN_SEGMENTS = 1000
+
+
+def fans(tools, args, have_lodpipe):
+    """The same chain on meshes with one vertex of high valence (bench/make_fans.py): each kind's
+    lodpipe run and meshopt_peer's chain, alternated, args.reps rounds; then the last round's levels
+    checked within their certified bounds."""
+    out = []
+    errors = ",".join(repr(x / 100) for x in CHAIN_PCT)
+    for kind in FAN_KINDS:
+        glb = os.path.join(WORK, "fan_%s.glb" % kind)
+        p = run(["python3", os.path.join(BENCH, "make_fans.py"), kind, str(FAN_SEGMENTS), glb], "make a fan mesh")
+        item = {"kind": kind, "made": last_json(p.stdout), "rounds": []}
+        L = None
+        for r in range(args.reps):
+            rnd = {}
+            if have_lodpipe:
+                L = tools.lodpipe_simplify(glb, os.path.join(WORK, "fan_%s_lodpipe" % kind), CHAIN_PCT,
+                                           "lodpipe simplify (fans)")
+                if L["rc"] != 0:
+                    raise RuntimeError("lodpipe failed on %s: %s" % (rel(glb), L["stderr"]))
+                rnd["lodpipe"] = {"wall": L["wall"], "user": L["user"],
+                                  "triangles": [lv["triangles"] for lv in L["levels"]],
+                                  "bound_pct": [lv["bound_pct"] for lv in L["levels"]]}
+            rc, o, err, wall, user, sys_, rss = run_rusage(
+                [tools.peer, "chain", glb, "0", "--errors", errors, "--reps", "1"], "meshopt_peer chain (fans)")
+            if rc != 0:
+                raise RuntimeError("meshopt_peer failed on %s: %s" % (rel(glb), err))
+            j = last_json(o)
+            rnd["meshopt"] = {"by_error": j["by_error"]["median_seconds"],
+                              "triangles": [lv["triangles"] for lv in j["by_error"]["levels"]]}
+            item["rounds"].append(rnd)
+        if L and not args.no_verify:
+            item["verify"] = []
+            for lv in L["levels"]:
+                b = lv["bound_pct"]
+                item["verify"].append(tools.within(glb + "#mesh=0", lv["obj"], b / 100) if b is not None
+                                      else {"within": False})
+        log("fans: %s: %s" % (kind, json.dumps(item["rounds"][-1])))
+        out.append(item)
+    return out
 
 
 # ---------------------------------------------------------------- report
@@ -604,7 +651,7 @@ def report(results, args):
       "Measurements, not pass/fail: the issue-3 targets are quoted next to them." % results["entry"])
     for part, built in sorted(results.get("reused", {}).items()):
         w("")
-        w("Exception: the %s figures come from the previous run (`--skip-%s --reuse`), made with a lodpipe "
+        w("Exception: the %s figures come from an earlier run (`--skip-%s --reuse`), made with a lodpipe "
           "built %s; the table below describes this run." % (part, part, built))
     if results.get("peer_reused_from"):
         w("")
@@ -841,6 +888,40 @@ def report(results, args):
               "%.0f bytes per input triangle." % (max(r["meshopt"]["maxrss"] for r in R) / T))
         w("")
 
+    fan = (sp or {}).get("fans")
+    if fan:
+        w("## 3. Fans: the chain on meshes with one vertex of high valence")
+        w("")
+        w("Inputs from `bench/make_fans.py` (%d segments): a disc fanned from its centre, a closed cone "
+          "(side fanned from the apex, base from its centre), a closed cylinder of 4 rows with each cap "
+          "fanned from its centre. Each centre has %d triangles around it, below the hub limit (4,096), so "
+          "lodpipe may move it. Per kind %d rounds, each lodpipe's whole 1/3/7/15 %% chain (`lodpipe "
+          "simplify`, one process, wall clock) then meshopt_peer's four `meshopt_simplify` calls by error; "
+          "medians. The last round's lodpipe levels are checked with `hausdorff --within` their certified "
+          "bound." % (FAN_SEGMENTS, FAN_SEGMENTS, len(fan[0]["rounds"])))
+        w("")
+        w("| mesh | triangles | lodpipe, whole process | meshopt, 4 levels | ratio | lodpipe levels | "
+          "meshopt levels | levels proven within their bound |")
+        w("|---|---:|---:|---:|---:|---|---|---|")
+        for it in fan:
+            R = it["rounds"]
+            mo = med([r["meshopt"]["by_error"] for r in R])
+            have = all("lodpipe" in r for r in R)
+            lw = med([r["lodpipe"]["wall"] for r in R]) if have else None
+            ver = it.get("verify")
+            w("| %s | %s | %s | %.4f s | %s | %s | %s | %s |" % (
+                it["kind"], n(it["made"]["triangles"]),
+                "%.2f s (%s)" % (lw, ", ".join("%.2f" % r["lodpipe"]["wall"] for r in R)) if have else "-",
+                mo, "%.0fx" % (lw / mo) if have and mo > 0 else "-",
+                "/".join(str(x) for x in R[-1]["lodpipe"]["triangles"]) if have else "-",
+                "/".join(str(x) for x in R[-1]["meshopt"]["triangles"]),
+                "%d of %d" % (sum(1 for v in ver if v.get("within")), len(ver)) if ver else "not checked"))
+        w("")
+        w("Not the issue's target (that is the 1.1M chain above): a measure of what one vertex of high "
+          "valence costs. lodpipe's time here is the certificate of the collapses around the centre, "
+          "retried after each collapse on the rim (README, \"Hubs\").")
+        w("")
+
     for f in results.get("failures", []):
         w("**Benchmark failure** (this part has no figures): `%s`" % f.replace("`", "'")[:1500])
         w("")
@@ -964,7 +1045,9 @@ def main():
                 results[part] = previous[part]
                 if part == "quality" and previous.get("peer_reused_from"):
                     results["peer_reused_from"] = previous["peer_reused_from"]
-                results.setdefault("reused", {})[part] = previous.get("machine", {}).get("lodpipe_mtime")
+                # where the part was measured: carried along when the previous run reused it too
+                results.setdefault("reused", {})[part] = (previous.get("reused", {}).get(part) or
+                                                          previous.get("machine", {}).get("lodpipe_mtime"))
                 COMMANDS.update({k: v for k, v in previous.get("commands", {}).items() if k not in COMMANDS})
     if args.reuse_peer and not args.skip_quality:
         results["peer_reused_from"] = peer_from

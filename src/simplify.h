@@ -90,7 +90,8 @@ enum {
     SIMPLIFY_REJECT_KIND,     /* vertex kind or edge type forbids it */
     SIMPLIFY_REJECT_LINK,     /* link condition or degree floor */
     SIMPLIFY_REJECT_FLIP,     /* a face would turn too far or become degenerate */
-    SIMPLIFY_REJECT_INTERSECT,/* a new face would cross a face of the level that the replaced faces did not meet */
+    SIMPLIFY_REJECT_INTERSECT,/* a new face would cross a face of the level that the replaced faces did not meet
+                                 (tested after the certificate: a collapse failing both counts as COVER or FACE) */
     SIMPLIFY_REJECT_COVER,    /* (b): an original would not stay within eps */
     SIMPLIFY_REJECT_FACE,     /* (a): a new face would leave eps of the original */
     SIMPLIFY_REJECT_CONFLICT, /* an earlier commit of the batch changed its data: retried */
