@@ -4,15 +4,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static uint32_t hash(uint32_t k)
-{
-    k ^= k >> 16;
-    k *= 0x7feb352dU;
-    k ^= k >> 15;
-    k *= 0x846ca68bU;
-    return k ^ (k >> 16);
-}
-
 void keymap_clear(keymap *m)
 {
     m->count = 0;
@@ -25,7 +16,7 @@ void keymap_clear(keymap *m)
 uint32_t *keymap_find(const keymap *m, uint32_t k)
 {
     if (!m->key) return NULL;
-    for (uint32_t i = hash(k) & m->mask;; i = (i + 1) & m->mask) {
+    for (uint32_t i = keymap_hash(k) & m->mask;; i = (i + 1) & m->mask) {
         if (m->generation[i] != m->current) return NULL;
         if (m->key[i] == k) return &m->value[i];
     }
@@ -45,7 +36,7 @@ static int grow(keymap *m)
     const uint32_t live = m->current ? m->current : 1;
     for (uint32_t j = 0; j < old_slots; ++j) {
         if (m->generation[j] != m->current) continue;
-        uint32_t i = hash(m->key[j]) & (slots - 1);
+        uint32_t i = keymap_hash(m->key[j]) & (slots - 1);
         while (generation[i] == live) i = (i + 1) & (slots - 1);
         key[i] = m->key[j];
         value[i] = m->value[j];
@@ -66,7 +57,7 @@ int keymap_insert(keymap *m, uint32_t k, uint32_t v)
 {
     if (m->current == 0) m->current = 1;
     if ((!m->key || 2 * ((size_t)m->count + 1) > (size_t)m->mask + 1) && grow(m)) return -1;
-    for (uint32_t i = hash(k) & m->mask;; i = (i + 1) & m->mask) {
+    for (uint32_t i = keymap_hash(k) & m->mask;; i = (i + 1) & m->mask) {
         if (m->generation[i] != m->current) {
             m->key[i] = k;
             m->value[i] = v;

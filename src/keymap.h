@@ -18,6 +18,18 @@ typedef struct keymap {
     uint32_t current; /* generation of the live entries */
 } keymap;
 
+/* The map's hash, also an order for keys that nothing else orders: a
+ * bijection of 32-bit integers (so distinct keys never tie) that scatters
+ * neighbouring keys over the whole range (the lowbias32 mixer). */
+static inline uint32_t keymap_hash(uint32_t k)
+{
+    k ^= k >> 16;
+    k *= 0x7feb352dU;
+    k ^= k >> 15;
+    k *= 0x846ca68bU;
+    return k ^ (k >> 16);
+}
+
 /* Empties the map (keeps its memory). */
 void keymap_clear(keymap *m);
 /* The value of key k, or NULL when k is absent. */

@@ -152,6 +152,7 @@ typedef struct neighbour {
     int full;           /* full-edge placement allowed on this edge (place is the new position) */
     double place[3];
     double cost;
+    double length2; /* squared length of the edge u - x: the order among equal costs */
 } neighbour;
 
 /* Stars committed (the alive faces of each, and its box): per star i its
@@ -620,6 +621,11 @@ static int legal_targets(const sim *s, scratch *sc, uint32_t u, int nclass)
         }
         n->full = kind == WELD_MANIFOLD && flags == 0 && placeable(s, u) && placeable(s, n->x);
         n->cost = edge_cost(s, u, n->x, &n->full, n->place);
+        double pu[3], px[3];
+        vertex_position(s, u, pu);
+        vertex_position(s, n->x, px);
+        n->length2 = 0.0;
+        for (int k = 0; k < 3; ++k) n->length2 += (pu[k] - px[k]) * (pu[k] - px[k]);
         legal++;
     }
     return legal;
@@ -1326,11 +1332,15 @@ static int certify_change(const sim *s, scratch *sc, candidate *c, const collaps
     return 1;
 }
 
-/* Cheaper first, the lower vertex number on a tie (a total order: the
- * neighbours are distinct). */
+/* Cheaper first; among equal costs the shorter edge, then the lower vertex
+ * number (a total order: the neighbours are distinct). Equal costs are the
+ * rule on flat parts, where every quadric is exactly 0: there the nearest
+ * neighbour is the target that leaves no sliver (a 300 x 300 grid at z = 0:
+ * 51 s with the lower number first, even with tie_order's candidate order). */
 static int neighbour_before(const neighbour *a, const neighbour *b)
 {
-    return a->cost < b->cost || (a->cost == b->cost && a->x < b->x);
+    return a->cost < b->cost ||
+           (a->cost == b->cost && (a->length2 < b->length2 || (a->length2 == b->length2 && a->x < b->x)));
 }
 
 /* u's handful of neighbours in that order, by insertion (glibc's qsort
@@ -1896,12 +1906,25 @@ typedef struct ranked {
     uint32_t u;
 } ranked;
 
-/* Cheaper first, the lower vertex number on a tie: a strict total order (the
- * numbers are distinct and costs are never NaN), so any correct sort gives
- * the same sequence. */
+/* The order of candidates of equal cost: a fixed permutation of the vertex
+ * numbers (keymap_hash, a bijection of 32-bit integers). Vertex
+ * numbers follow the input's layout, rows of a grid for example; a flat part,
+ * where every cost is exactly 0, collapsed in that order is swept row by row
+ * into long slivers and fans that the certificate and the crossing test then
+ * pay for. A 300 x 300 grid at z = 0 (180,000 triangles) took 24 s by vertex
+ * number and takes 1.4 s in this order (with neighbour_before's shorter edge
+ * first); the corpus's level sizes moved by a few triangles either way. */
+static inline uint32_t tie_order(uint32_t u)
+{
+    return keymap_hash(u);
+}
+
+/* Cheaper first, tie_order on a tie: a strict total order (tie_order is a
+ * bijection and costs are never NaN), so any correct sort gives the same
+ * sequence. */
 static int ranked_before(const ranked *x, const ranked *y)
 {
-    return x->cost < y->cost || (x->cost == y->cost && x->u < y->u);
+    return x->cost < y->cost || (x->cost == y->cost && tie_order(x->u) < tie_order(y->u));
 }
 
 static void swap_ranked(ranked *a, ranked *b)
@@ -2710,9 +2733,10 @@ typedef struct queued_cost {
     uint32_t u, version;
 } queued_cost;
 
+/* The passes' order (ranked_before). */
 static int queued_before(const queued_cost *x, const queued_cost *y)
 {
-    return x->cost < y->cost || (x->cost == y->cost && x->u < y->u);
+    return x->cost < y->cost || (x->cost == y->cost && tie_order(x->u) < tie_order(y->u));
 }
 
 /* What one thread keeps while it runs regions: a region's queue (a binary

@@ -32,6 +32,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "keymap.h"
 #include "threads.h"
 
 #define NONE UINT32_MAX
@@ -46,19 +47,9 @@ static uint32_t float_key(float f)
     return u == 0x80000000u ? 0u : u;
 }
 
-static uint32_t mix32(uint32_t h)
-{
-    h ^= h >> 16;
-    h *= 0x7feb352du;
-    h ^= h >> 15;
-    h *= 0x846ca68bu;
-    h ^= h >> 16;
-    return h;
-}
-
 static uint32_t hash_step(uint32_t h, uint32_t v)
 {
-    return mix32(h ^ (v + 0x9e3779b9u + (h << 6) + (h >> 2)));
+    return keymap_hash(h ^ (v + 0x9e3779b9u + (h << 6) + (h >> 2)));
 }
 
 /* Smallest power of two >= 2 * n (at least 16): load factor <= 1/2. */

@@ -1044,19 +1044,21 @@ test(`adversarial meshes (seeds ${ADVERSARIAL_SEEDS.join(', ')}): every level pr
     assert.ok(runs.some((x) => x.shift) && runs.some((x) => x.primitives === 2) && runs.some((x) => x.extra.length), 'far, two materials, placement');
   });
 
-// Fans below the hub limit (bench/make_fans.py): a disc fanned from its centre, a closed cone, a closed
-// cylinder whose caps are fanned from their centres. The centre is a vertex of valence 300 that the
-// simplifier may move; its collapses are retried after every collapse on the rim (this took 7 s for a
-// 256-segment cylinder, 337 s for 1,000, before the certificate ran ahead of the crossing test). Same
-// checks as the corpus: every level proven within its bound by the CGAL tool, topology kept, and the fans
-// simplified.
-for (const kind of ['disc', 'cone', 'cylinder']) {
-  test(`simplify a ${kind} fanned from its centre (300 segments): sound, bounded, monotone, topology kept`, { skip: skipCorpus }, async (t) => {
+// Shapes that cost the simplifier far more than their size (bench/make_shapes.py). Fans below the hub
+// limit: a disc fanned from its centre, a closed cone, a closed cylinder whose caps are fanned from their
+// centres. The centre is a vertex of valence 300 that the simplifier may move; its collapses are retried
+// after every collapse on the rim (this took 7 s for a 256-segment cylinder, 337 s for 1,000, before the
+// certificate ran ahead of the crossing test). A flat grid of 100 x 100 cells at z = 0, numbered row by
+// row, where every quadric cost is exactly 0 (swept row by row in vertex order, a 300 x 300 grid took
+// 24 s; README "Flat parts"). Same checks as the corpus: every level proven within its bound by the CGAL
+// tool, topology kept, and the shapes simplified: the grid, a flat square, down to two triangles.
+for (const [kind, segments] of [['disc', 300], ['cone', 300], ['cylinder', 300], ['grid', 100]]) {
+  test(`simplify a ${kind} of ${segments} segments (bench/make_shapes.py): sound, bounded, monotone, topology kept`, { skip: skipCorpus }, async (t) => {
     if (hausdorffSkip) assert.fail(`${hausdorffSkip}: soundness cannot be checked`);
-    const dir = tempDir(t, 'lodpipe-fan-');
+    const dir = tempDir(t, 'lodpipe-shape-');
     const file = path.join(dir, `${kind}.glb`);
-    const made = spawnSync('python3', [path.join(repoRoot, 'bench', 'make_fans.py'), kind, '300', file], { encoding: 'utf8' });
-    assert.equal(made.status, 0, `make_fans.py: ${made.stderr}`);
+    const made = spawnSync('python3', [path.join(repoRoot, 'bench', 'make_shapes.py'), kind, String(segments), file], { encoding: 'utf8' });
+    assert.equal(made.status, 0, `make_shapes.py: ${made.stderr}`);
     const outDir = path.join(dir, 'out');
     fs.mkdirSync(outDir);
     const r = runSimplify({ rel: `${kind}.glb`, file, triangles: JSON.parse(made.stdout).triangles }, outDir);
@@ -1070,9 +1072,10 @@ for (const kind of ['disc', 'cone', 'cylinder']) {
     const res = checkMesh(outDir, m, { original: { doc: await readDocument(file), file } });
     for (const n of res.notes) t.diagnostic(`${kind} ${n}`);
     for (const [key, title] of ASPECTS) assert.deepEqual(res.problems[key], [], formatProblems(`${kind}: ${title}`, res.problems[key]));
-    // not vacuous: the fan is below the hub limit, so nothing is held, and the first level removes most of it
+    // not vacuous: no centre is above the hub limit, so nothing is held, and the first level removes most of it
     assert.equal(m.held, 0, `${kind}: held ${m.held}`);
     assert.ok(m.levels[0].triangles < m.triangles / 4, `${kind}: level 1 keeps ${m.levels[0].triangles} of ${m.triangles}`);
+    if (kind === 'grid') assert.equal(m.levels[0].triangles, 2, 'the flat square: two triangles at level 1');
   });
 }
 
