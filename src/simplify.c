@@ -610,6 +610,7 @@ static int legal_targets(const sim *s, scratch *sc, uint32_t u, int nclass)
     else if (borders == 0 && nclass == 2 && seams_at_u == 2) kind = WELD_SEAM;
     else return 0;
     int legal = 0;
+    const vec3d at_u = geom_vec3d_from_floats(s->positions + 3 * (size_t)u);
     for (size_t i = 0; i < sc->nb_size; ++i) {
         neighbour *n = &sc->nb[i];
         uint8_t flags = n->count == 1 ? WELD_FLAG_BORDER : (n->seam ? WELD_FLAG_SEAM : 0);
@@ -621,11 +622,7 @@ static int legal_targets(const sim *s, scratch *sc, uint32_t u, int nclass)
         }
         n->full = kind == WELD_MANIFOLD && flags == 0 && placeable(s, u) && placeable(s, n->x);
         n->cost = edge_cost(s, u, n->x, &n->full, n->place);
-        double pu[3], px[3];
-        vertex_position(s, u, pu);
-        vertex_position(s, n->x, px);
-        n->length2 = 0.0;
-        for (int k = 0; k < 3; ++k) n->length2 += (pu[k] - px[k]) * (pu[k] - px[k]);
+        n->length2 = geom_distance2(at_u, geom_vec3d_from_floats(s->positions + 3 * (size_t)n->x));
         legal++;
     }
     return legal;
@@ -1336,7 +1333,7 @@ static int certify_change(const sim *s, scratch *sc, candidate *c, const collaps
  * number (a total order: the neighbours are distinct). Equal costs are the
  * rule on flat parts, where every quadric is exactly 0: there the nearest
  * neighbour is the target that leaves no sliver (a 300 x 300 grid at z = 0,
- * candidates in tie_order: 6.6 s with the lower number first, 1.6 s with the
+ * candidates in candidate_before's order: 6.6 s with the lower number first, 1.6 s with the
  * shorter edge). */
 static int neighbour_before(const neighbour *a, const neighbour *b)
 {
@@ -1907,26 +1904,25 @@ typedef struct ranked {
     uint32_t u;
 } ranked;
 
-/* The order of candidates of equal cost: a fixed permutation of the vertex
- * numbers (keymap_hash, a bijection of 32-bit integers). Vertex
- * numbers follow the input's layout, rows of a grid for example; a flat part,
- * where every cost is exactly 0, collapsed in that order is swept row by row
- * into long slivers and fans that the certificate and the crossing test then
- * pay for. A 300 x 300 grid at z = 0 (180,000 triangles) took 24 s by vertex
+/* The order of candidates, for the passes (ranked_before) and the region
+ * queues (queued_before): cheaper first, and among equal costs a fixed
+ * permutation of the vertex numbers (keymap_hash, a bijection of 32-bit
+ * integers), so a strict total order (costs are never NaN) that any correct
+ * sort turns into the same sequence. Vertex numbers follow the input's
+ * layout, rows of a grid for example; a flat part, where every cost is
+ * exactly 0, collapsed in that order is swept row by row into long slivers
+ * and fans that the certificate and the crossing test then pay for. A 300 x 300 grid at z = 0 (180,000 triangles) took 24 s by vertex
  * number and takes 1.6 s in this order with neighbour_before's shorter edge
  * first (51 s in vertex order with the shorter edge first); the corpus's
  * level sizes moved by a few triangles either way. */
-static inline uint32_t tie_order(uint32_t u)
+static inline int candidate_before(double x_cost, uint32_t x, double y_cost, uint32_t y)
 {
-    return keymap_hash(u);
+    return x_cost < y_cost || (x_cost == y_cost && keymap_hash(x) < keymap_hash(y));
 }
 
-/* Cheaper first, tie_order on a tie: a strict total order (tie_order is a
- * bijection and costs are never NaN), so any correct sort gives the same
- * sequence. */
 static int ranked_before(const ranked *x, const ranked *y)
 {
-    return x->cost < y->cost || (x->cost == y->cost && tie_order(x->u) < tie_order(y->u));
+    return candidate_before(x->cost, x->u, y->cost, y->u);
 }
 
 static void swap_ranked(ranked *a, ranked *b)
@@ -2735,10 +2731,9 @@ typedef struct queued_cost {
     uint32_t u, version;
 } queued_cost;
 
-/* The passes' order (ranked_before). */
 static int queued_before(const queued_cost *x, const queued_cost *y)
 {
-    return x->cost < y->cost || (x->cost == y->cost && tie_order(x->u) < tie_order(y->u));
+    return candidate_before(x->cost, x->u, y->cost, y->u);
 }
 
 /* What one thread keeps while it runs regions: a region's queue (a binary
