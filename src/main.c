@@ -408,7 +408,7 @@ static simplify_options simplify_options_of(const cli *c)
     uint32_t full_edge = 0;
     if (c->config.lod.placement == 1) full_edge = c->config.lod.optimal_levels ? c->config.lod.optimal_levels & every : every;
     simplify_options opt = {c->levels, (uint32_t)c->config.lod.level_count, (uint32_t)c->config.run.threads,
-                            c->config.lod.flip_cos, 0, c->config.lod.strict_intersections, full_edge, 0, 0};
+                            c->config.lod.flip_cos, 0, c->config.lod.strict_intersections, full_edge, 0, 0, 0};
     const char *verify = getenv("LODPIPE_VERIFY");
     opt.verify = verify && strcmp(verify, "0") != 0;
     return opt;

@@ -69,6 +69,10 @@
 /* A vertex with more faces around it than this is a hub: it and its
  * neighbours are held at every level (simplify.c says why) */
 #define SIMPLIFY_HUB_FACES 4096
+/* A vertex rejected with more faces around it than this is tried again only
+ * once an eighth of them are gone, until the level's last pass (simplify.c:
+ * retry_due) */
+#define SIMPLIFY_PATIENT_FACES 64
 
 typedef struct simplify_options {
     const double *fractions;  /* eps_k / diagonal, increasing, level_count of them */
@@ -84,6 +88,8 @@ typedef struct simplify_options {
     uint32_t hub_faces;       /* more faces than this around a vertex make it a hub, held with its
                                  neighbours (simplify_result.held_vertices); no collapse makes one
                                  (0: SIMPLIFY_HUB_FACES; another value for tests) */
+    uint32_t patient_faces;   /* retry_due's patience above this many faces (0: SIMPLIFY_PATIENT_FACES;
+                                 another value for tests) */
 } simplify_options;
 
 enum {

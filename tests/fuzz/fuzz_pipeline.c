@@ -162,14 +162,18 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
      * collapse that would make one, at a size these small inputs reach;
      * bit 3: options.verify, the invariant checker (registrations both
      * ways, every changed face and original re-certified, every batch
-     * reservation re-decided by walking the 2-ball), whose "broken" aborts */
+     * reservation re-decided by walking the 2-ball), whose "broken" aborts;
+     * bit 4: retry_due's patience from 3 faces (simplify.h: patient_faces),
+     * so that these small inputs have vertices held back until a level's
+     * last pass */
     const uint8_t last = size ? data[size - 1] : 0;
     const uint32_t full_edge = last & 1u ? (uint32_t)((1ull << levels) - 1u) : 0;
     const uint32_t regions = last & 2u ? 16 : 0;
     const uint32_t hub_faces = last & 4u ? 6 : 0;
     const int verify = (last & 8u) != 0;
+    const uint32_t patient_faces = last & 16u ? 3 : 0;
     const simplify_options opt = {fractions, levels, 1, config.lod.flip_cos, verify, config.lod.strict_intersections,
-                                  full_edge, regions, hub_faces};
+                                  full_edge, regions, hub_faces, patient_faces};
     const lodchain_options chain = {{config.switching.pixel_error, config.switching.viewport_height,
                                      config.switching.fov_y},
                                     config.lod.min_reduction, 0, NULL, 1};

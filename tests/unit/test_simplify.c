@@ -143,6 +143,8 @@ static double now(void)
 static uint32_t g_full_edge_levels;
 /* simplify_options.hub_faces likewise (0: the default) */
 static uint32_t g_hub_faces;
+/* simplify_options.patient_faces likewise (0: the default) */
+static uint32_t g_patient_faces;
 /* simplify_options.region_vertices likewise: 0 leaves these small meshes
  * to the global passes; a small size sends them through region rounds */
 static uint32_t g_region_vertices;
@@ -197,6 +199,7 @@ static int run_simplify(run *rn, const mesh *m, const double *fractions, uint32_
     o.full_edge_levels = g_full_edge_levels;
     o.region_vertices = g_region_vertices;
     o.hub_faces = g_hub_faces;
+    o.patient_faces = g_patient_faces;
     int64_t material[2] = {rn->prim[0].material, rn->prim[1].material};
     double t0 = now();
     rc = simplify_mesh(&rn->w, material, &o, &rn->r, &err);
@@ -1901,6 +1904,85 @@ static void test_hubs(void)
     mesh_free(&m);
 }
 
+/* ---- patience (simplify.c: retry_due) ------------------------------------------ */
+
+/* Whether runs a and b made the same levels, face for face. */
+static int same_levels(const run *a, const run *b)
+{
+    if (a->r.level_count != b->r.level_count) return 0;
+    for (uint32_t k = 0; k < a->r.level_count; ++k) {
+        const uint32_t n = a->r.levels[k].triangle_count;
+        if (n != b->r.levels[k].triangle_count) return 0;
+        for (uint32_t f = 0; f < n; ++f)
+            for (uint32_t c = 0; c < 3; ++c)
+                if (level_vertex(a, k, f, c) != level_vertex(b, k, f, c)) return 0;
+    }
+    return 1;
+}
+
+/* A flat disc of 1,000 sectors fanned from its centre. Every collapse on
+ * the rim changes the centre's neighbourhood, and at 1 % no collapse of the
+ * centre is certified (a sliver from the centre to the rim would need more
+ * than CERT_MAX_WITNESSES faces of a fan from a rim vertex). Tried again
+ * after every such change, the centre was evaluated about once per rim
+ * collapse (1,983 candidates for 1,001 vertices, 1.2 s); with patience it
+ * waits for an eighth of its faces to go. Patience changes when a vertex is
+ * tried, not what a try decides: here the levels are the same face for face.
+ * Then patience for every vertex (from 3 faces) on a bumpy sphere with the
+ * checker on, which at the end of each level checks that every rejected
+ * vertex whose neighbourhood changed was tried again (the level's last,
+ * impatient pass): its levels are sound and simplified as usual. */
+static void test_patience(void)
+{
+    mesh m;
+    run patient, eager;
+    /* the disc not in region rounds: every region's interior would touch
+     * the centre, so the rounds would commit nothing, which run_simplify's
+     * check refuses */
+    if (g_region_vertices) goto sphere;
+    mesh_init(&m);
+    const uint32_t sectors = 1000;
+    const uint32_t centre = mesh_vertex(&m, 0, 0, 0);
+    for (uint32_t t = 0; t < sectors; ++t) {
+        const double a = 2.0 * M_PI * t / sectors;
+        mesh_vertex(&m, cos(a), sin(a), 0);
+    }
+    for (uint32_t t = 0; t < sectors; ++t) mesh_tri(&m, centre, 1 + t, 1 + (t + 1) % sectors);
+    const int ok_patient = run_simplify(&patient, &m, default_ladder, 4, 0, 0) == LP_OK;
+    g_patient_faces = UINT32_MAX;
+    const int ok_eager = run_simplify(&eager, &m, default_ladder, 4, 0, 0) == LP_OK;
+    g_patient_faces = 0;
+    if (ok_patient && ok_eager) {
+        check_structure("disc, patient", &patient);
+        check_topology("disc, patient", &patient, 1, 1);
+        check_levels("disc, patient", &patient, 8);
+        check_simplified("disc, patient", &patient, m.nt);
+        const uint64_t tried = patient.r.levels[0].stats.candidates, tried_eager = eager.r.levels[0].stats.candidates;
+        CHECK(tried_eager > 3 * (uint64_t)m.nv / 2, "without patience the centre is tried after each rim collapse: %llu "
+              "candidates at 1 %% for %u vertices", (unsigned long long)tried_eager, m.nv);
+        CHECK(tried < 5 * (uint64_t)m.nv / 4, "with patience about once per vertex: %llu candidates at 1 %% for %u vertices",
+              (unsigned long long)tried, m.nv);
+        CHECK(same_levels(&patient, &eager), "the disc's levels are the same with and without patience");
+    }
+    run_free(&patient);
+    run_free(&eager);
+    mesh_free(&m);
+
+sphere:
+    mesh_init(&m);
+    build_icosphere(&m, 3, geom_vec3d(0, 0, 0));
+    g_patient_faces = 3;
+    if (run_simplify(&patient, &m, default_ladder, 4, 0, 1) == LP_OK) {
+        check_structure("sphere, patience from 3 faces", &patient);
+        check_topology("sphere, patience from 3 faces", &patient, 2, 0);
+        check_levels("sphere, patience from 3 faces", &patient, 8);
+        check_simplified("sphere, patience from 3 faces", &patient, m.nt);
+    }
+    g_patient_faces = 0;
+    run_free(&patient);
+    mesh_free(&m);
+}
+
 /* ---- translation by 1e5 ------------------------------------------------------- */
 
 /* The same bumpy sphere at the origin and moved by (1e5, 1e5, 1e5): every
@@ -2370,12 +2452,14 @@ int main(void)
 {
     run_cases();
     RUN(test_hubs);
+    RUN(test_patience);
     /* Every case again through region rounds (simplify.c: each region
      * simplified on its own, in parallel): regions of 64 vertices, so that
      * these small meshes have many regions and boundaries run everywhere. */
     g_region_vertices = 64;
     run_cases();
     RUN(test_hubs);
+    RUN(test_patience);
     RUN(test_wavy_shell_regions);
     RUN(test_hill_over_coarse_hill_regions);
     RUN(test_double_sided_sheet);
