@@ -525,18 +525,36 @@ static void best_visit(void *context, uint32_t t)
  * hv's vertices (INFINITY when none is within accept). Short rings are
  * walked. Around a vertex of high valence (a fan's hub: thousands of
  * sectors) a walk per piece made certifying a sliver fan quadratic, so the
- * tree then visits just the triangles within ball_reach of the piece's
- * centre. The others could only measure INFINITY, and the minimum does not
- * depend on the order of the measures: the same answer either way. */
-static double best_around(const cert_original *o, face_filter *filter, const vec3d p[3], const vec3d *centre,
-                          double r, const uint32_t hv[3], double accept)
+ * tree then visits just the triangles within ball_reach of one corner of
+ * the piece: one that counts holds every corner within accept. The others
+ * could only measure INFINITY, and the minimum does not depend on the order
+ * of the measures: the same answer either way. The corner is the one
+ * farthest from the vertex of the largest ring: every sector of a fan lies
+ * near a point near its hub. This ball lies inside the one of radius
+ * r + accept around the piece's centre that the tree visited before, which
+ * at a fan's hub held every sector: on a cylinder of 1,000 segments with
+ * fanned caps, one thread, the visits went from 5.4 to 2.9 % of the profile
+ * (the run time within its noise). */
+static double best_around(const cert_original *o, face_filter *filter, const vec3d p[3], const uint32_t hv[3],
+                          double accept)
 {
     best_search b = {o, filter, p, accept, hv, INFINITY, INFINITY};
-    uint32_t ring = 0;
-    for (int k = 0; k < 3; ++k) ring += o->vertex_offsets[hv[k] + 1] - o->vertex_offsets[hv[k]];
+    uint32_t ring = 0, largest = 0, hub = hv[0];
+    for (int k = 0; k < 3; ++k) {
+        const uint32_t n = o->vertex_offsets[hv[k] + 1] - o->vertex_offsets[hv[k]];
+        ring += n;
+        if (n > largest) largest = n, hub = hv[k];
+    }
     if (ring > o->ring_scan_max) {
-        const double q[3] = {centre->x, centre->y, centre->z};
-        bvh_visit_near(&o->tree, q, ball_reach(centre, r, accept), best_visit, &b);
+        const vec3d h = vertex_of(o, hub);
+        int far = 0;
+        double far2 = -1.0;
+        for (int k = 0; k < 3; ++k) {
+            const double d2 = geom_distance2(p[k], h);
+            if (d2 > far2) far2 = d2, far = k;
+        }
+        const double q[3] = {p[far].x, p[far].y, p[far].z};
+        bvh_visit_near(&o->tree, q, ball_reach(&p[far], 0.0, accept), best_visit, &b);
         return b.best;
     }
     /* a triangle already measured around an earlier corner is skipped */
@@ -576,7 +594,7 @@ static int piece_a(const cert_original *o, face_filter *filter, const cert_tri *
     }
     /* Convexity: the closest triangle or one around its corners may hold the
      * whole piece within eps. */
-    const double best = best_around(o, filter, p, &c, r, o->triangles + 3 * (size_t)hit.triangle, accept);
+    const double best = best_around(o, filter, p, o->triangles + 3 * (size_t)hit.triangle, accept);
     if (best <= accept) {
         if (best > *bound) *bound = best;
         return 1;
