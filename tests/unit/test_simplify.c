@@ -1906,16 +1906,28 @@ static void test_hubs(void)
 
 /* ---- patience (simplify.c: retry_due) ------------------------------------------ */
 
-/* Whether runs a and b made the same levels, face for face. */
-static int same_levels(const run *a, const run *b)
+/* Whether runs x and y made the same levels: faces, primitives, bounds,
+ * placed positions and commit counts (why: the first difference). Also the
+ * determinism tests' comparison (below). */
+static int same_result(const run *x, const run *y, char *why, size_t n)
 {
-    if (a->r.level_count != b->r.level_count) return 0;
-    for (uint32_t k = 0; k < a->r.level_count; ++k) {
-        const uint32_t n = a->r.levels[k].triangle_count;
-        if (n != b->r.levels[k].triangle_count) return 0;
-        for (uint32_t f = 0; f < n; ++f)
-            for (uint32_t c = 0; c < 3; ++c)
-                if (level_vertex(a, k, f, c) != level_vertex(b, k, f, c)) return 0;
+    if (x->r.level_count != y->r.level_count) return snprintf(why, n, "level count"), 0;
+    for (uint32_t k = 0; k < x->r.level_count; ++k) {
+        const simplify_level *a = &x->r.levels[k], *b = &y->r.levels[k];
+        if (a->triangle_count != b->triangle_count)
+            return snprintf(why, n, "level %u: %u vs %u triangles", k, a->triangle_count, b->triangle_count), 0;
+        if (memcmp(a->wedges, b->wedges, 3 * (size_t)a->triangle_count * sizeof *a->wedges))
+            return snprintf(why, n, "level %u: faces differ", k), 0;
+        if (memcmp(a->primitive, b->primitive, (size_t)a->triangle_count * sizeof *a->primitive))
+            return snprintf(why, n, "level %u: primitives differ", k), 0;
+        if (memcmp(&a->bound, &b->bound, sizeof a->bound))
+            return snprintf(why, n, "level %u: bound %.17g vs %.17g", k, a->bound, b->bound), 0;
+        if (!a->positions != !b->positions ||
+            (a->positions && memcmp(a->positions, b->positions, 3 * (size_t)x->w.vertex_count * sizeof *a->positions)))
+            return snprintf(why, n, "level %u: placed positions differ", k), 0;
+        if (a->stats.commits != b->stats.commits)
+            return snprintf(why, n, "level %u: %llu vs %llu commits", k, (unsigned long long)a->stats.commits,
+                            (unsigned long long)b->stats.commits), 0;
     }
     return 1;
 }
@@ -1962,7 +1974,8 @@ static void test_patience(void)
               "candidates at 1 %% for %u vertices", (unsigned long long)tried_eager, m.nv);
         CHECK(tried < 5 * (uint64_t)m.nv / 4, "with patience about once per vertex: %llu candidates at 1 %% for %u vertices",
               (unsigned long long)tried, m.nv);
-        CHECK(same_levels(&patient, &eager), "the disc's levels are the same with and without patience");
+        char why[200];
+        CHECK(same_result(&patient, &eager, why, sizeof why), "the disc's levels with and without patience: %s", why);
     }
     run_free(&patient);
     run_free(&eager);
@@ -2028,29 +2041,6 @@ static void test_translated_1e5(void)
 }
 
 /* ---- determinism -------------------------------------------------------------- */
-
-static int same_result(const run *x, const run *y, char *why, size_t n)
-{
-    if (x->r.level_count != y->r.level_count) return snprintf(why, n, "level count"), 0;
-    for (uint32_t k = 0; k < x->r.level_count; ++k) {
-        const simplify_level *a = &x->r.levels[k], *b = &y->r.levels[k];
-        if (a->triangle_count != b->triangle_count)
-            return snprintf(why, n, "level %u: %u vs %u triangles", k, a->triangle_count, b->triangle_count), 0;
-        if (memcmp(a->wedges, b->wedges, 3 * (size_t)a->triangle_count * sizeof *a->wedges))
-            return snprintf(why, n, "level %u: faces differ", k), 0;
-        if (memcmp(a->primitive, b->primitive, (size_t)a->triangle_count * sizeof *a->primitive))
-            return snprintf(why, n, "level %u: primitives differ", k), 0;
-        if (memcmp(&a->bound, &b->bound, sizeof a->bound))
-            return snprintf(why, n, "level %u: bound %.17g vs %.17g", k, a->bound, b->bound), 0;
-        if (!a->positions != !b->positions ||
-            (a->positions && memcmp(a->positions, b->positions, 3 * (size_t)x->w.vertex_count * sizeof *a->positions)))
-            return snprintf(why, n, "level %u: placed positions differ", k), 0;
-        if (a->stats.commits != b->stats.commits)
-            return snprintf(why, n, "level %u: %llu vs %llu commits", k, (unsigned long long)a->stats.commits,
-                            (unsigned long long)b->stats.commits), 0;
-    }
-    return 1;
-}
 
 static void test_thread_count_invariance(void)
 {
